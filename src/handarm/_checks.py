@@ -1,0 +1,34 @@
+"""Small input checks shared by the public functions; each names the offending argument."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from handarm.design import ArmDesign
+
+
+def check_design(design: Any, name: str = "design") -> ArmDesign:
+    """Return ``design`` if it is an ArmDesign, else raise TypeError naming it."""
+    if not isinstance(design, ArmDesign):
+        raise TypeError(f"{name}: expected an ArmDesign, got {type(design).__name__}")
+    return design
+
+
+def check_array(value: Any, name: str, last: int, *, finite: bool = True) -> np.ndarray:
+    """Float array of shape (..., last); raise ValueError naming ``name`` otherwise."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected numbers, got {type(value).__name__}") from None
+    if arr.ndim == 0 or arr.shape[-1] != last:
+        raise ValueError(f"{name}: expected shape (..., {last}), got {arr.shape}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return arr
+
+
+def check_joints(q: Any, name: str = "q") -> np.ndarray:
+    """Joint angles, shape (..., 6), radians, finite."""
+    return check_array(q, name, 6)

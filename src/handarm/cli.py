@@ -1,0 +1,108 @@
+"""The ``handarm`` command: argument parsing only; every action is a library call.
+
+A user mistake (missing file, bad TOML, bad value) prints one line and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from handarm import __version__
+from handarm._io import write_text_atomic
+from handarm.cad_out.urdf import write_urdf
+from handarm.design import ArmDesign
+from handarm.summary import design_summary
+
+
+class UsageError(Exception):
+    """A mistake in what the user asked for; reported as one line, exit status 2."""
+
+
+def _load_design(path: str | None) -> ArmDesign:
+    return ArmDesign() if path is None else ArmDesign.from_toml(path)
+
+
+def _add_design_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "design", nargs="?", metavar="DESIGN.toml", help="arm design (default: the paper's arm)"
+    )
+
+
+# -- subcommands -------------------------------------------------------------------------------
+
+
+def cmd_build(args: argparse.Namespace) -> int:
+    """Everything for one design: design TOML, URDF, summary."""
+    design = _load_design(args.design)
+    out = Path(args.out)
+    written = build(design, out)
+    for path in written:
+        print(path)
+    return 0
+
+
+def build(design: ArmDesign, out: Path) -> list[Path]:
+    """Write every output of ``handarm build`` for ``design`` into ``out``; returns the paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    written = [
+        design.to_toml(out / "design.toml"),
+        write_urdf(design, out / f"{design.name}.urdf"),
+    ]
+    summary = out / "summary.txt"
+    write_text_atomic(summary, design_summary(design))
+    written.append(summary)
+    return written
+
+
+def cmd_urdf(args: argparse.Namespace) -> int:
+    """Write the design as URDF."""
+    design = _load_design(args.design)
+    print(write_urdf(design, args.out))
+    return 0
+
+
+# -- parser ------------------------------------------------------------------------------------
+
+
+def make_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``handarm`` command."""
+    parser = argparse.ArgumentParser(
+        prog="handarm",
+        description="Design, carve, solve and drive small coupled-tendon robot arms.",
+    )
+    parser.add_argument("--version", action="version", version=f"handarm {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser(
+        "build", help="everything for one design (the main job)", description=cmd_build.__doc__
+    )
+    _add_design_arg(p)
+    p.add_argument("--out", default="build", help="output folder (default: build)")
+    p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("urdf", help="write the design as URDF", description=cmd_urdf.__doc__)
+    _add_design_arg(p)
+    p.add_argument("--out", required=True, metavar="FILE", help="URDF file to write")
+    p.set_defaults(func=cmd_urdf)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status."""
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (UsageError, ValueError, OSError) as exc:
+        print(f"handarm {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"handarm {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

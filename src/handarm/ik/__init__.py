@@ -1,0 +1,1 @@
+"""Analytical 5-DoF inverse kinematics (paper section III): every solution range, exact."""

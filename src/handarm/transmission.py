@@ -1,0 +1,88 @@
+"""Coupled-tendon transmission: joint <-> motor angles, velocities and torques.
+
+Motor k drives joint k through one closed cable loop that also wraps an idler on every
+joint j < k. With motor pulley radius rho, joint pulley radii r_j and wrap signs s_kj::
+
+    rho * phi_k = sum_{j <= k} s_kj * r_j * q_j        i.e.  phi = K q,  K lower-triangular
+
+and virtual work gives tau_joint = K^T tau_motor.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import solve_triangular
+
+from handarm._checks import check_array, check_design
+from handarm.design import ArmDesign
+
+__all__ = [
+    "STALL_TORQUE",
+    "NO_LOAD_SPEED",
+    "coupling_matrix",
+    "motor_from_joint",
+    "joint_from_motor",
+    "joint_torque_from_motor",
+    "motor_torque_from_joint",
+    "joint_effort_limits",
+    "joint_velocity_limits",
+]
+
+#: MX-64T stall torque at 12 V (N m).
+STALL_TORQUE = 6.0
+#: MX-64T no-load speed at 12 V (rad/s): 63 rpm.
+NO_LOAD_SPEED = 63.0 * 2.0 * math.pi / 60.0
+
+
+def coupling_matrix(design: ArmDesign) -> np.ndarray:
+    """K, shape (6, 6), lower-triangular: motor angles = K @ joint angles."""
+    check_design(design)
+    signs = np.array(design.routing_signs, dtype=float)
+    radii = np.array(design.joint_pulley_radii)
+    return signs * radii[None, :] / design.motor_pulley_radius
+
+
+def motor_from_joint(design: ArmDesign, q) -> np.ndarray:
+    """Motor angles (or velocities) from joint ones, shape (..., 6)."""
+    q = check_array(q, "q", 6)
+    return q @ coupling_matrix(design).T
+
+
+def joint_from_motor(design: ArmDesign, phi) -> np.ndarray:
+    """Joint angles (or velocities) from motor ones by forward substitution, shape (..., 6)."""
+    phi = check_array(phi, "phi", 6)
+    k = coupling_matrix(design)
+    flat = phi.reshape(-1, 6).T
+    return solve_triangular(k, flat, lower=True).T.reshape(phi.shape)
+
+
+def joint_torque_from_motor(design: ArmDesign, tau_motor) -> np.ndarray:
+    """Joint torques from motor torques, tau_joint = K^T tau_motor, shape (..., 6)."""
+    tau_motor = check_array(tau_motor, "tau_motor", 6)
+    return tau_motor @ coupling_matrix(design)
+
+
+def motor_torque_from_joint(design: ArmDesign, tau_joint) -> np.ndarray:
+    """Motor torques that hold given joint torques (K^T is upper-triangular), shape (..., 6)."""
+    tau_joint = check_array(tau_joint, "tau_joint", 6)
+    k = coupling_matrix(design)
+    flat = tau_joint.reshape(-1, 6).T
+    return solve_triangular(k.T, flat, lower=False).T.reshape(tau_joint.shape)
+
+
+def joint_effort_limits(design: ArmDesign, stall_torque: float = STALL_TORQUE) -> np.ndarray:
+    """Largest torque each joint can see with all motors at stall, shape (6,), N m.
+
+    Joint j is driven by every cable that wraps it: sum_k |K_kj| * stall.
+    """
+    return np.abs(coupling_matrix(design)).sum(axis=0) * stall_torque
+
+
+def joint_velocity_limits(design: ArmDesign, motor_speed: float = NO_LOAD_SPEED) -> np.ndarray:
+    """Fastest each joint can turn alone, every motor within its speed, shape (6,), rad/s.
+
+    Turning joint j alone moves motor k at K_kj * qdot_j, so qdot_j <= speed / max_k |K_kj|.
+    """
+    return motor_speed / np.abs(coupling_matrix(design)).max(axis=0)

@@ -1,0 +1,172 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import handarm
+from handarm.kinematics import COLLISION_PAIRS, segments_intersect
+
+D = math.radians
+
+
+def _rz(t):
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+
+
+def _tx(a):
+    m = np.eye(4)
+    m[0, 3] = a
+    return m
+
+
+RX90 = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], dtype=float)
+
+
+def chain(design, q):
+    """DESIGN.md's product of elementary transforms, written out independently."""
+    a = design.link_lengths
+    t = np.eye(4)
+    for k in range(6):
+        if k == 3:
+            t = t @ RX90
+        t = t @ _rz(q[k]) @ _tx(a[k + 1])
+    return t
+
+
+@pytest.mark.parametrize(
+    ("q_deg", "p", "e"),
+    [
+        ([0, 0, 0, 0, 0, 0], [0.30, 0, 0], [1, 0, 0]),
+        ([90, 0, 0, 0, 0, 0], [0, 0.30, 0], [0, 1, 0]),
+        ([0, 90, 0, 0, 0, 0], [0.05, 0.25, 0], [0, 1, 0]),
+        ([0, 0, -90, 0, 0, 0], [0.10, -0.20, 0], [0, -1, 0]),
+        # joint 4 lifts the tip out of the base plane towards +z (the 90 degree twist)
+        ([0, 0, 0, 90, 0, 0], [0.15, 0, 0.15], [0, 0, 1]),
+        ([0, 0, 0, 0, 0, 90], [0.25, 0, 0.05], [0, 0, 1]),
+        ([0, 0, 90, 90, 0, 0], [0.10, 0.05, 0.15], [0, 0, 1]),
+        ([90, 0, 0, -90, 0, 0], [0, 0.15, -0.15], [0, 0, -1]),
+        ([0, 0, 0, 0, 90, -90], [0.25, 0, 0.05], [1, 0, 0]),
+    ],
+)
+def test_hand_computed_poses(design, q_deg, p, e):
+    p_got, e_got = handarm.forward(design, np.radians(q_deg))
+    np.testing.assert_allclose(p_got, p, atol=1e-15)
+    np.testing.assert_allclose(e_got, e, atol=1e-15)
+
+
+def test_matches_the_transform_chain(design, rng):
+    q = rng.uniform(-math.pi, math.pi, (200, 6))
+    d2 = design.replace(link_lengths=rng.uniform(0.01, 0.1, 7))
+    for dd in (design, d2):
+        p, e = handarm.forward(dd, q)
+        t = handarm.forward_matrix(dd, q)
+        for i in range(len(q)):
+            ref = chain(dd, q[i])
+            np.testing.assert_allclose(p[i], ref[:3, 3], atol=1e-15)
+            np.testing.assert_allclose(e[i], ref[:3, 0], atol=1e-15)
+            np.testing.assert_allclose(t[i], ref, atol=1e-15)
+
+
+def test_batch_equals_loop_and_keeps_leading_dims(design, rng):
+    q = rng.uniform(-3, 3, (4, 5, 6))
+    p, e = handarm.forward(design, q)
+    pos = handarm.joint_positions(design, q)
+    valid = handarm.is_valid(design, q)
+    assert p.shape == (4, 5, 3) and e.shape == (4, 5, 3)
+    assert pos.shape == (4, 5, 8, 3) and valid.shape == (4, 5)
+    for i in range(4):
+        for j in range(5):
+            p1, e1 = handarm.forward(design, q[i, j])
+            np.testing.assert_array_equal(p1, p[i, j])
+            np.testing.assert_array_equal(e1, e[i, j])
+            assert handarm.is_valid(design, q[i, j]) == valid[i, j]
+
+
+def test_joint_positions_agree_with_frames(design, rng):
+    q = rng.uniform(-3, 3, (50, 6))
+    pos = handarm.joint_positions(design, q)
+    frames = handarm.joint_frames(design, q)
+    np.testing.assert_allclose(pos[:, 0], [[-0.05, 0, 0]] * 50, atol=1e-15)
+    np.testing.assert_allclose(pos[:, 1:], frames[..., :3, 3], atol=1e-15)
+    a = np.linalg.norm(np.diff(pos, axis=1), axis=-1)
+    np.testing.assert_allclose(a, 0.05, atol=1e-15)
+
+
+def test_bad_q_is_named(design):
+    with pytest.raises(ValueError, match=r"q: expected shape \(\.\.\., 6\)"):
+        handarm.forward(design, np.zeros(5))
+    with pytest.raises(ValueError, match="q: contains NaN"):
+        handarm.forward(design, [0, 0, 0, np.nan, 0, 0])
+    with pytest.raises(TypeError, match="design: expected an ArmDesign"):
+        handarm.forward("paper", np.zeros(6))
+
+
+def test_limits_are_closed(design):
+    q = design.upper.copy()
+    q[[0, 2]] = 0.0  # keep the arm from folding onto the handle
+    assert handarm.within_limits(design, q)
+    q[1] = np.nextafter(q[1], 4.0)
+    assert not handarm.within_limits(design, q)
+    assert not handarm.is_valid(design, q)
+
+
+# (pair, crossing configuration, a neighbouring configuration that does not cross), degrees.
+CASES = [
+    (("l0", "l2"), [130, 140, 0, 0, 0, 0], [130, 100, 0, 0, 0, 0]),
+    (("l0", "l3"), [60, 120, 90, 0, 0, 0], [60, 120, 45, 0, 0, 0]),
+    (("l1", "l3"), [0, 150, 120, 0, 0, 0], [0, 150, 30, 0, 0, 0]),
+    (("l6", "l4"), [0, 0, 0, 0, 150, 120], [0, 0, 0, 0, 150, 30]),
+    (("l6", "l3"), [0, 0, 0, 60, 120, 90], [0, 0, 0, 60, 120, 45]),
+    (("l5", "l3"), [0, 0, 0, 120, 150, 0], [0, 0, 0, 120, 100, 0]),
+]
+
+
+@pytest.mark.parametrize(("pair", "crossing", "clear"), CASES)
+def test_each_pair_crosses_by_hand(loose, pair, crossing, clear):
+    which = handarm.link_crossings(loose, np.radians(crossing))
+    expected = np.array([p == pair for p in COLLISION_PAIRS])
+    np.testing.assert_array_equal(which, expected)
+    assert not handarm.is_valid(loose, np.radians(crossing))
+    assert not handarm.link_crossings(loose, np.radians(clear)).any()
+    assert handarm.is_valid(loose, np.radians(clear))
+
+
+def test_straight_arm_is_valid(design):
+    # all links collinear: rounding noise must not make disjoint segments "cross"
+    for psi in np.linspace(-2, 2, 9):
+        q = np.array([psi, 0, 0, 0.3, 0, 0])
+        assert handarm.is_valid(design, q)
+
+
+def _reference_intersect(p1, p2, p3, p4):
+    """Solve p1 + t (p2 - p1) = p3 + s (p4 - p3) for t, s in [0, 1]."""
+    r, s_ = p2 - p1, p4 - p3
+    den = r[0] * s_[1] - r[1] * s_[0]
+    if abs(den) < 1e-12:
+        return None  # parallel: left to the exact test
+    w = p3 - p1
+    t = (w[0] * s_[1] - w[1] * s_[0]) / den
+    s = (w[0] * r[1] - w[1] * r[0]) / den
+    return -1e-9 <= t <= 1 + 1e-9 and -1e-9 <= s <= 1 + 1e-9, min(
+        abs(t), abs(t - 1), abs(s), abs(s - 1)
+    )
+
+
+@settings(max_examples=300, deadline=None)
+@given(arrays(np.float64, (4, 2), elements=st.floats(-1, 1)))
+def test_segment_test_agrees_with_parametric_solution(pts):
+    ref = _reference_intersect(*pts)
+    if ref is None or ref[1] < 1e-7:
+        return  # parallel or grazing an end: the parametric form is ill-conditioned there
+    assert bool(segments_intersect(*pts)) == ref[0]
+
+
+def test_collinear_segments():
+    a, b = np.array([0.0, 0.0]), np.array([1.0, 0.0])
+    assert segments_intersect(a, b, np.array([0.5, 0.0]), np.array([2.0, 0.0]))
+    assert segments_intersect(a, b, np.array([1.0, 0.0]), np.array([2.0, 0.0]))  # touching
+    assert not segments_intersect(a, b, np.array([1.5, 0.0]), np.array([2.0, 0.0]))
