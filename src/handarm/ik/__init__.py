@@ -1,1 +1,27 @@
-"""Analytical 5-DoF inverse kinematics (paper section III): every solution range, exact."""
+"""Analytical 5-DoF inverse kinematics (paper section III): every solution range, exact.
+
+``solve`` answers one target with every solution range; ``solve_batch`` answers N targets in
+parallel; ``configuration_at`` gives the joint angles at any point of a range.
+"""
+
+from handarm.ik.solve import (
+    MAX_SOLUTIONS,
+    BatchResult,
+    IKResult,
+    configuration_at,
+    configurations_along,
+    nearest_solution,
+    solve,
+    solve_batch,
+)
+
+__all__ = [
+    "MAX_SOLUTIONS",
+    "BatchResult",
+    "IKResult",
+    "configuration_at",
+    "configurations_along",
+    "nearest_solution",
+    "solve",
+    "solve_batch",
+]

@@ -1,0 +1,339 @@
+"""The analytical 5-DoF IK (paper section III; DESIGN.md sections 3-4).
+
+A target is a tool point ``p`` and a tool direction ``e``. Link l3 lies on the line
+L = {F + u d}, F = (p_x, p_y, 0), d = +-h/|h| with h the horizontal part of e; u is the
+coordinate of joint 4 along L. For each branch (sign of d, elbow of B, elbow of E) the
+valid u form a union of intervals, found exactly (see ``_kernels``); every interval is a
+*solution range* and its midpoint the representative solution.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from handarm._checks import check_array, check_design, check_joints
+from handarm.design import ArmDesign
+from handarm.ik import _kernels as K
+
+__all__ = [
+    "IKResult",
+    "BatchResult",
+    "solve",
+    "solve_batch",
+    "configuration_at",
+    "configurations_along",
+    "nearest_solution",
+    "MAX_SOLUTIONS",
+]
+
+#: Rows of a batch result (DESIGN.md: up to ranges x 2 x 2 x 2 = 24 in the paper's example).
+MAX_SOLUTIONS = 24
+_SINGLE_CAPACITY = 256
+_BATCH_CHUNK = 65536
+
+
+@dataclasses.dataclass(frozen=True)
+class IKResult:
+    """Every solution range of one target.
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (k, 6)
+        Joint angles (rad) at the midpoint of each range; sorted by distance to ``current``
+        when it was given, else by branch and u.
+    branches : ndarray of int, shape (k, 3)
+        (sign of d, elbow of B, elbow of E), each +1/-1.
+    intervals : ndarray, shape (k, 2)
+        [u_lo, u_hi] of joint 4 along L for each range (m).
+    reached_dof : int
+        5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``).
+    position_error, direction_error : float
+        Distance (m) and angle (rad) between the target and the pose of ``solutions``.
+    vertical : bool
+        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``.
+    azimuth : float
+        Direction of L (rad from +x) for d = +1.
+    achieved_position, achieved_direction : ndarray, shape (3,)
+        The pose the solutions reach (the target itself when reached_dof == 5).
+    """
+
+    solutions: np.ndarray
+    branches: np.ndarray
+    intervals: np.ndarray
+    reached_dof: int = 5
+    position_error: float = 0.0
+    direction_error: float = 0.0
+    vertical: bool = False
+    azimuth: float = 0.0
+    achieved_position: np.ndarray | None = None
+    achieved_direction: np.ndarray | None = None
+
+    @property
+    def count(self) -> int:
+        """Number of solution ranges."""
+        return len(self.solutions)
+
+    def __len__(self) -> int:
+        return self.count
+
+    def nearest(self, current) -> np.ndarray:
+        """The solution closest to ``current`` (Euclidean in joint space), shape (6,)."""
+        if self.count == 0:
+            raise ValueError("no solution to choose from")
+        return self.solutions[nearest_solution(self.solutions, current)]
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchResult:
+    """Solutions of N targets, padded to ``MAX_SOLUTIONS`` rows.
+
+    Attributes
+    ----------
+    counts : ndarray of int, shape (N,)
+        Ranges stored per target (rows past it are NaN in ``solutions`` and ``intervals``,
+        0 in ``branches``).
+    solutions : ndarray, shape (N, 24, 6)
+    branches : ndarray of int8, shape (N, 24, 3)
+    intervals : ndarray, shape (N, 24, 2)
+    truncated : ndarray of bool, shape (N,)
+        More than 24 ranges existed; the first 24 (by branch and u) are stored.
+    vertical : ndarray of bool, shape (N,)
+    """
+
+    counts: np.ndarray
+    solutions: np.ndarray
+    branches: np.ndarray
+    intervals: np.ndarray
+    truncated: np.ndarray
+    vertical: np.ndarray
+
+
+def nearest_solution(solutions: np.ndarray, current) -> int:
+    """Index of the row of ``solutions`` (k, 6) closest to ``current`` (6,)."""
+    current = check_joints(current, "current")
+    return int(np.argmin(np.sum((solutions - current) ** 2, axis=-1)))
+
+
+def _check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray, np.ndarray]:
+    p = check_array(p, p_name, 3)
+    e = check_array(e, e_name, 3)
+    norm = np.linalg.norm(e, axis=-1)
+    bad = norm < 1e-12
+    if np.any(bad):
+        where = "" if e.ndim == 1 else f"[{int(np.flatnonzero(bad.reshape(-1))[0])}]"
+        raise ValueError(f"{e_name}{where}: direction has zero length")
+    return p, e / norm[..., None]
+
+
+def _azimuth(p: np.ndarray, e: np.ndarray, current: np.ndarray | None) -> tuple[bool, float]:
+    """Whether e is vertical, and the azimuth of d = +1 (fixed rule when vertical)."""
+    h = math.hypot(e[0], e[1])
+    if h >= K.VERTICAL_EPS:
+        return False, math.atan2(e[1], e[0])
+    if current is not None:
+        return True, float(K.wrap(current[0] + current[1] + current[2]))
+    return True, _default_vertical_azimuth(p)
+
+
+def _default_vertical_azimuth(p: np.ndarray) -> float:
+    """The documented azimuth for a vertical direction: from joint 1 towards the target."""
+    if math.hypot(p[0], p[1]) < 1e-12:
+        return 0.0
+    return math.atan2(p[1], p[0])
+
+
+def _order(solutions, branches, intervals, current):
+    if current is None or len(solutions) == 0:
+        return solutions, branches, intervals
+    idx = np.argsort(np.sum((solutions - current) ** 2, axis=-1), kind="stable")
+    return solutions[idx], branches[idx], intervals[idx]
+
+
+def solve(
+    design: ArmDesign,
+    p,
+    e,
+    current=None,
+    *,
+    degrade: bool = True,
+) -> IKResult:
+    """Every solution range of the target (p, e).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    p : array-like, shape (3,)
+        Tool point (m).
+    e : array-like, shape (3,)
+        Tool direction; normalised here (a zero vector is an error).
+    current : array-like, shape (6,), optional
+        The arm's present configuration: solutions are sorted by distance to it, a
+        vertical ``e`` uses its azimuth, and degraded answers stay near it.
+    degrade : bool
+        When no 5-DoF solution exists, return the closest reachable pose (4, 3 or 2 DoF)
+        instead of an empty result.
+
+    Returns
+    -------
+    IKResult
+    """
+    check_design(design)
+    p, e = _check_target(p, e)
+    if p.shape != (3,):
+        raise ValueError(f"p: expected shape (3,), got {p.shape}")
+    if e.shape != (3,):
+        raise ValueError(f"e: expected shape (3,), got {e.shape}")
+    if current is not None:
+        current = check_joints(current, "current")
+        if current.shape != (6,):
+            raise ValueError(f"current: expected shape (6,), got {current.shape}")
+    vertical, azimuth = _azimuth(p, e, current)
+    sols, br, iv = _solve_raw(design, p, e, azimuth)
+    if len(sols) or not degrade:
+        sols, br, iv = _order(sols, br, iv, current)
+        return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy())
+    from handarm.ik.degrade import degrade_target
+
+    return degrade_target(design, p, e, current)
+
+
+def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
+    cap = _SINGLE_CAPACITY
+    q = np.empty((cap, 6))
+    br = np.empty((cap, 3), np.int8)
+    iv = np.empty((cap, 2))
+    n = K.solve_target(p, e, azimuth, design.lengths, design.lower, design.upper, q, br, iv)
+    if n < 0 or n > cap:
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    return q[:n].copy(), br[:n].astype(int), iv[:n].copy()
+
+
+def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchResult:
+    """5-DoF solutions of N targets, in parallel, in chunks of bounded memory.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    P, E : array-like, shape (N, 3)
+        Tool points (m) and directions (normalised here).
+    chunk : int
+        Targets per parallel call; memory use is O(N) for the outputs only.
+
+    Returns
+    -------
+    BatchResult
+        Vertical directions use the azimuth from joint 1 towards the target. No
+        degradation: a target without a 5-DoF solution has count 0.
+    """
+    check_design(design)
+    P, E = _check_target(P, E, "P", "E")
+    if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
+        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    n = len(P)
+    counts = np.zeros(n, np.int64)
+    sols = np.full((n, MAX_SOLUTIONS, 6), np.nan)
+    br = np.zeros((n, MAX_SOLUTIONS, 3), np.int8)
+    iv = np.full((n, MAX_SOLUTIONS, 2), np.nan)
+    h = np.hypot(E[:, 0], E[:, 1])
+    vertical = h < K.VERTICAL_EPS
+    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
+    a, lo, hi = design.lengths, design.lower, design.upper
+    for s in range(0, n, chunk):
+        sl = slice(s, min(n, s + chunk))
+        K.solve_many(
+            np.ascontiguousarray(P[sl]),
+            np.ascontiguousarray(E[sl]),
+            psi[sl],
+            a,
+            lo,
+            hi,
+            sols[sl],
+            br[sl],
+            iv[sl],
+            counts[sl],
+        )
+    if np.any(counts < 0):
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    truncated = counts > MAX_SOLUTIONS
+    counts = np.minimum(counts, MAX_SOLUTIONS)
+    return BatchResult(counts, sols, br, iv, truncated, vertical)
+
+
+def configurations_along(
+    design: ArmDesign, p, e, branch, u, *, azimuth=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles at many u of one branch.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    p, e : array-like, shape (3,)
+    branch : sequence of 3 int
+        (sign of d, elbow of B, elbow of E).
+    u : array-like, shape (n,)
+        Coordinates of joint 4 along L (m).
+    azimuth : float, optional
+        As in ``configuration_at``.
+
+    Returns
+    -------
+    q : ndarray, shape (n, 6)
+        Joint angles; zeros where the branch cannot reach.
+    reachable : ndarray of bool, shape (n,)
+        Both chains reach that u on this branch (validity is not checked).
+    """
+    check_design(design)
+    p, e = _check_target(p, e)
+    br = _check_branch(branch)
+    u = np.ascontiguousarray(check_array(np.atleast_1d(u)[:, None], "u", 1)[:, 0])
+    dx, dy = _line_direction(p, e, br, azimuth)
+    q = np.zeros((len(u), 6))
+    ok = np.zeros(len(u), np.bool_)
+    K.configurations_along_u(p, e, dx, dy, u, float(br[1]), float(br[2]), design.lengths, q, ok)
+    return q, ok
+
+
+def _check_branch(branch) -> np.ndarray:
+    br = np.asarray(branch)
+    if br.shape != (3,) or not np.all(np.isin(br, (-1, 1))):
+        raise ValueError(f"branch: expected three signs +1/-1, got {branch!r}")
+    return br
+
+
+def _line_direction(p, e, br, azimuth) -> tuple[float, float]:
+    vertical, psi = _azimuth(p, e, None)
+    if vertical and azimuth is not None:
+        psi = float(azimuth)
+    return br[0] * math.cos(psi), br[0] * math.sin(psi)
+
+
+def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None) -> np.ndarray:
+    """Joint angles at any u of a branch, shape (6,).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    p, e : array-like, shape (3,)
+        The target.
+    branch : sequence of 3 int
+        (sign of d, elbow of B, elbow of E), each +1/-1, as in ``IKResult.branches``.
+    u : float
+        Coordinate of joint 4 along L (m); inside a range of that branch the result is a
+        valid configuration reaching the target.
+    azimuth : float, optional
+        The azimuth of d = +1 for a vertical ``e`` (``IKResult.azimuth``).
+    """
+    check_design(design)
+    p, e = _check_target(p, e)
+    br = _check_branch(branch)
+    if not math.isfinite(u):
+        raise ValueError(f"u: must be finite, got {u}")
+    dx, dy = _line_direction(p, e, br, azimuth)
+    q = np.empty(6)
+    ok = K.configuration_at_u(p, e, dx, dy, float(u), float(br[1]), float(br[2]), design.lengths, q)
+    if not ok:
+        raise ValueError(f"u: {u:g} m is out of reach of branch {tuple(int(b) for b in br)}")
+    return q
