@@ -32,6 +32,9 @@ __all__ = [
 ]
 
 #: Non-adjacent link pairs checked for crossing (the paper's model): base plane, then tip plane.
+#: Relative size below which an orientation test counts as collinear (see segments_intersect).
+COLLINEAR_TOL = 1e-12
+
 COLLISION_PAIRS = (
     ("l0", "l2"),
     ("l0", "l3"),
@@ -180,18 +183,28 @@ def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def segments_intersect(p1, p2, p3, p4) -> np.ndarray:
     """Whether closed segments p1p2 and p3p4 share a point, batched, shape (...,).
 
-    Touching counts as intersecting. The bounding-box test first keeps nearly collinear,
-    disjoint segments (a straight arm) from being called crossing by rounding noise.
+    Touching counts as intersecting. Orientation values below ``COLLINEAR_TOL`` times the
+    product of the segment lengths count as zero, so that exactly degenerate cases (a line
+    through a joint) are decided the same way whatever the rounding; the bounding-box test
+    keeps nearly collinear, disjoint segments (a straight arm) apart.
     """
     p1, p2, p3, p4 = (np.asarray(x, dtype=float) for x in (p1, p2, p3, p4))
-    lo_a, hi_a = np.minimum(p1, p2), np.maximum(p1, p2)
+    len_a = np.linalg.norm(p2 - p1, axis=-1)
+    len_b = np.linalg.norm(p4 - p3, axis=-1)
+    grow = (COLLINEAR_TOL * np.maximum(len_a, len_b))[..., None]
+    lo_a, hi_a = np.minimum(p1, p2) - grow, np.maximum(p1, p2) + grow
     lo_b, hi_b = np.minimum(p3, p4), np.maximum(p3, p4)
     boxes = np.all((lo_a <= hi_b) & (lo_b <= hi_a), axis=-1)
-    d1, d2 = _cross(p3, p4, p1), _cross(p3, p4, p2)
-    d3, d4 = _cross(p1, p2, p3), _cross(p1, p2, p4)
+    tol = COLLINEAR_TOL * len_a * len_b
+    d1, d2 = _snap(_cross(p3, p4, p1), tol), _snap(_cross(p3, p4, p2), tol)
+    d3, d4 = _snap(_cross(p1, p2, p3), tol), _snap(_cross(p1, p2, p4), tol)
     # Non-collinear segments meet iff each straddles the other's line; collinear ones
     # (all four zero) meet iff their boxes overlap.
     return boxes & (d1 * d2 <= 0.0) & (d3 * d4 <= 0.0)
+
+
+def _snap(x: np.ndarray, tol: np.ndarray) -> np.ndarray:
+    return np.where(np.abs(x) <= tol, 0.0, x)
 
 
 def link_crossings(design: ArmDesign, q) -> np.ndarray:

@@ -4,10 +4,11 @@
 parallel; ``configuration_at`` gives the joint angles at any point of a range.
 """
 
-from handarm.ik.solve import (
+from handarm.ik.solver import (
     MAX_SOLUTIONS,
     BatchResult,
     IKResult,
+    branch_of,
     configuration_at,
     configurations_along,
     nearest_solution,
@@ -19,6 +20,7 @@ __all__ = [
     "MAX_SOLUTIONS",
     "BatchResult",
     "IKResult",
+    "branch_of",
     "configuration_at",
     "configurations_along",
     "nearest_solution",

@@ -28,6 +28,8 @@ import math
 import numba as nb
 import numpy as np
 
+from handarm.kinematics import COLLINEAR_TOL
+
 PI = math.pi
 TWO_PI = 2.0 * math.pi
 MAX_CAND = 96  # candidate events per canonical problem (at most 74 are generated)
@@ -385,15 +387,24 @@ def _cross(ox, oy, ax, ay, bx, by):
 @nb.njit(**_JIT)
 def segments_touch(p1x, p1y, p2x, p2y, p3x, p3y, p4x, p4y):
     """Closed segments p1p2 and p3p4 share a point (same predicate as kinematics)."""
-    if min(p1x, p2x) > max(p3x, p4x) or min(p3x, p4x) > max(p1x, p2x):
+    len_a = math.sqrt((p2x - p1x) ** 2 + (p2y - p1y) ** 2)
+    len_b = math.sqrt((p4x - p3x) ** 2 + (p4y - p3y) ** 2)
+    grow = COLLINEAR_TOL * max(len_a, len_b)
+    if min(p1x, p2x) - grow > max(p3x, p4x) or min(p3x, p4x) > max(p1x, p2x) + grow:
         return False
-    if min(p1y, p2y) > max(p3y, p4y) or min(p3y, p4y) > max(p1y, p2y):
+    if min(p1y, p2y) - grow > max(p3y, p4y) or min(p3y, p4y) > max(p1y, p2y) + grow:
         return False
-    d1 = _cross(p3x, p3y, p4x, p4y, p1x, p1y)
-    d2 = _cross(p3x, p3y, p4x, p4y, p2x, p2y)
-    d3 = _cross(p1x, p1y, p2x, p2y, p3x, p3y)
-    d4 = _cross(p1x, p1y, p2x, p2y, p4x, p4y)
+    tol = COLLINEAR_TOL * len_a * len_b
+    d1 = _snap(_cross(p3x, p3y, p4x, p4y, p1x, p1y), tol)
+    d2 = _snap(_cross(p3x, p3y, p4x, p4y, p2x, p2y), tol)
+    d3 = _snap(_cross(p1x, p1y, p2x, p2y, p3x, p3y), tol)
+    d4 = _snap(_cross(p1x, p1y, p2x, p2y, p4x, p4y), tol)
     return d1 * d2 <= 0.0 and d3 * d4 <= 0.0
+
+
+@nb.njit(**_JIT)
+def _snap(x, tol):
+    return 0.0 if abs(x) <= tol else x
 
 
 @nb.njit(**_JIT)
@@ -586,14 +597,18 @@ def _union_to_tip(iv_b, cnt_b, ofs_b, ofs_t, out):
 
 
 WS_SIZE = 128
+VERTICAL_STEP = math.radians(0.5)
 
 
 @nb.njit(**_JIT)
-def _workspace():
-    """Scratch arrays of one solving thread (allocated once, reused for every target)."""
+def _workspace(lower, upper):
+    """Scratch space of one solving thread: limits, then arrays reused for every target."""
+    lb = np.empty(6)
+    lt = np.empty(6)
+    _limits(lower, upper, lb, lt)
     return (
-        np.empty(6),
-        np.empty(6),
+        lb,
+        lt,
         np.empty((2, MAX_IV, 2)),
         np.empty((2, MAX_IV, 2)),
         np.zeros(2, np.int64),
@@ -608,60 +623,39 @@ def _workspace():
 
 
 @nb.njit(**_JIT)
-def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv):
+def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi_used):
     """Every 5-DoF solution range of one target.
 
     Returns the number of ranges found (rows beyond ``out_q.shape[0]`` are not stored),
-    or -1 if an internal interval buffer overflowed. ``psi_vertical`` is the azimuth used
-    when ``e`` is vertical.
+    or -1 if an internal interval buffer overflowed. When ``e`` is vertical, L may take
+    any azimuth: the first azimuth with a solution, going out from ``psi_vertical`` in
+    steps of VERTICAL_STEP, is used. The azimuth of d = +1 goes to ``psi_used[0]``.
     """
-    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = _workspace()
-    _limits(lower, upper, lb, lt)
-    return _solve_target(
-        p,
-        e,
-        psi_vertical,
-        a,
-        lb,
-        lt,
-        out_q,
-        out_br,
-        out_iv,
-        iv_b,
-        iv_t,
-        cnt_b,
-        cnt_t,
-        allowed,
-        q,
-        fr,
-        buf,
-        tags,
-        ws,
-    )
+    work = _workspace(lower, upper)
+    return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work)
 
 
 @nb.njit(**_JIT)
-def _solve_target(
-    p,
-    e,
-    psi_vertical,
-    a,
-    lb,
-    lt,
-    out_q,
-    out_br,
-    out_iv,
-    iv_b,
-    iv_t,
-    cnt_b,
-    cnt_t,
-    allowed,
-    q,
-    fr,
-    buf,
-    tags,
-    ws,
-):
+def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work):
+    if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
+        psi_used[0] = math.atan2(e[1], e[0])
+        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work)
+    # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
+    n_steps = int(math.ceil(0.5 * PI / VERTICAL_STEP))
+    for k in range(2 * n_steps + 1):
+        off = ((k + 1) // 2) * VERTICAL_STEP * (1.0 if k % 2 == 1 else -1.0)
+        psi = wrap(psi_vertical + off)
+        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work)
+        if n != 0:
+            psi_used[0] = psi
+            return n
+    psi_used[0] = psi_vertical
+    return 0
+
+
+@nb.njit(**_JIT)
+def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
+    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = work
     cap = out_q.shape[0]
     hx, hy = e[0], e[1]
     hn = math.sqrt(hx * hx + hy * hy)
@@ -764,7 +758,7 @@ def _solve_target(
 
 
 @nb.njit(parallel=True, **_JIT)
-def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, counts):
+def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, counts, psi_used):
     """solve_target over rows, in parallel; rows beyond capacity are counted, not stored.
 
     Rows go in blocks so that each block allocates its scratch space once.
@@ -773,29 +767,18 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
     block = 256
     n_blocks = (n + block - 1) // block
     for b in nb.prange(n_blocks):
-        lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = _workspace()
-        _limits(lower, upper, lb, lt)
+        work = _workspace(lower, upper)
         for i in range(b * block, min(n, (b + 1) * block)):
-            counts[i] = _solve_target(
+            counts[i] = _solve_any_azimuth(
                 P[i],
                 E[i],
                 psi_vertical[i],
                 a,
-                lb,
-                lt,
                 out_q[i],
                 out_br[i],
                 out_iv[i],
-                iv_b,
-                iv_t,
-                cnt_b,
-                cnt_t,
-                allowed,
-                q,
-                fr,
-                buf,
-                tags,
-                ws,
+                psi_used[i : i + 1],
+                work,
             )
 
 

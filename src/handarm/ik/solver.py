@@ -23,6 +23,7 @@ __all__ = [
     "BatchResult",
     "solve",
     "solve_batch",
+    "branch_of",
     "configuration_at",
     "configurations_along",
     "nearest_solution",
@@ -53,11 +54,19 @@ class IKResult:
     position_error, direction_error : float
         Distance (m) and angle (rad) between the target and the pose of ``solutions``.
     vertical : bool
-        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``.
+        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``: the azimuth
+        with a solution nearest to that of ``current`` (l3's direction), or without
+        ``current``, nearest to the direction from joint 1 towards the target (0.5 degree
+        steps).
     azimuth : float
         Direction of L (rad from +x) for d = +1.
     achieved_position, achieved_direction : ndarray, shape (3,)
         The pose the solutions reach (the target itself when reached_dof == 5).
+    follow : ndarray, shape (6,) or None
+        With ``current``: the configuration inside the ranges nearest to it (u of each range
+        clamped towards the present one). It moves little when the target moves little,
+        which makes it the output to send in a handheld control loop. None without
+        ``current`` or without solutions.
     """
 
     solutions: np.ndarray
@@ -70,6 +79,7 @@ class IKResult:
     azimuth: float = 0.0
     achieved_position: np.ndarray | None = None
     achieved_direction: np.ndarray | None = None
+    follow: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -101,6 +111,8 @@ class BatchResult:
     truncated : ndarray of bool, shape (N,)
         More than 24 ranges existed; the first 24 (by branch and u) are stored.
     vertical : ndarray of bool, shape (N,)
+    azimuth : ndarray, shape (N,)
+        Direction of L for d = +1 (for vertical rows, the azimuth used; see IKResult).
     """
 
     counts: np.ndarray
@@ -109,12 +121,46 @@ class BatchResult:
     intervals: np.ndarray
     truncated: np.ndarray
     vertical: np.ndarray
+    azimuth: np.ndarray
 
 
 def nearest_solution(solutions: np.ndarray, current) -> int:
     """Index of the row of ``solutions`` (k, 6) closest to ``current`` (6,)."""
     current = check_joints(current, "current")
     return int(np.argmin(np.sum((solutions - current) ** 2, axis=-1)))
+
+
+def branch_of(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
+    """Branch signs and u of configurations, relative to the pose they reach.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    q : array-like, shape (..., 6)
+
+    Returns
+    -------
+    branch : ndarray of int, shape (..., 3)
+        (sign of d, elbow of B, elbow of E) as in ``IKResult.branches``; d is l3's direction
+        and its sign compares it with the horizontal part of the tool direction.
+    u : ndarray, shape (...,)
+        Coordinate of joint 4 along L from F = (p_x, p_y, 0) (m).
+    """
+    from handarm.kinematics import forward, joint_positions
+
+    check_design(design)
+    q = check_joints(q)
+    p, e = forward(design, q)
+    psi = q[..., 0] + q[..., 1] + q[..., 2]
+    d = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
+    along = np.sum(d * e[..., :2], axis=-1)
+    sign = np.where(along >= 0.0, 1, -1)
+    j4 = joint_positions(design, q)[..., 4, :2]
+    u = np.sum((j4 - p[..., :2]) * d, axis=-1)
+    branch = np.stack(
+        [sign, np.where(q[..., 1] >= 0.0, 1, -1), np.where(q[..., 4] >= 0.0, 1, -1)], axis=-1
+    )
+    return branch, u
 
 
 def _check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray, np.ndarray]:
@@ -191,13 +237,45 @@ def solve(
         if current.shape != (6,):
             raise ValueError(f"current: expected shape (6,), got {current.shape}")
     vertical, azimuth = _azimuth(p, e, current)
-    sols, br, iv = _solve_raw(design, p, e, azimuth)
+    sols, br, iv, azimuth = _solve_raw(design, p, e, azimuth)
     if len(sols) or not degrade:
         sols, br, iv = _order(sols, br, iv, current)
-        return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy())
+        follow = None
+        if current is not None and len(sols):
+            follow = follow_configuration(design, p, e, sols, br, iv, current, azimuth)
+        return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy(), follow)
     from handarm.ik.degrade import degrade_target
 
     return degrade_target(design, p, e, current)
+
+
+def follow_configuration(
+    design, p, e, solutions, branches, intervals, current, azimuth
+) -> np.ndarray:
+    """The configuration inside the given ranges nearest to ``current``, shape (6,).
+
+    For each range, joint 4 goes to where ``current`` has it (projected onto L), clamped to
+    the range (a hair inside its ends); the nearest of those configurations and of the
+    range midpoints ``solutions`` in joint space wins.
+    """
+    from handarm.kinematics import is_valid, joint_positions
+
+    j4 = joint_positions(design, current)[4, :2]
+    best = solutions[nearest_solution(solutions, current)]
+    best_dist = float(np.sum((best - current) ** 2))
+    a = design.lengths
+    q = np.empty(6)
+    for br, (lo, hi) in zip(branches, intervals, strict=True):
+        dx, dy = _line_direction(p, e, br[0], azimuth)
+        u = (j4[0] - p[0]) * dx + (j4[1] - p[1]) * dy
+        margin = min(1e-7, 0.25 * (hi - lo))
+        u = min(max(u, lo + margin), hi - margin)
+        if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+            continue
+        dist = float(np.sum((q - current) ** 2))
+        if dist < best_dist and is_valid(design, q):
+            best, best_dist = q.copy(), dist
+    return best
 
 
 def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
@@ -205,10 +283,11 @@ def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
     q = np.empty((cap, 6))
     br = np.empty((cap, 3), np.int8)
     iv = np.empty((cap, 2))
-    n = K.solve_target(p, e, azimuth, design.lengths, design.lower, design.upper, q, br, iv)
+    used = np.empty(1)
+    n = K.solve_target(p, e, azimuth, design.lengths, design.lower, design.upper, q, br, iv, used)
     if n < 0 or n > cap:
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
-    return q[:n].copy(), br[:n].astype(int), iv[:n].copy()
+    return q[:n].copy(), br[:n].astype(int), iv[:n].copy(), float(used[0])
 
 
 def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchResult:
@@ -225,7 +304,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     Returns
     -------
     BatchResult
-        Vertical directions use the azimuth from joint 1 towards the target. No
+        Vertical directions are handled as in ``solve`` without ``current``. No
         degradation: a target without a 5-DoF solution has count 0.
     """
     check_design(design)
@@ -241,6 +320,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     vertical = h < K.VERTICAL_EPS
     psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
     a, lo, hi = design.lengths, design.lower, design.upper
+    used = np.empty(n)
     for s in range(0, n, chunk):
         sl = slice(s, min(n, s + chunk))
         K.solve_many(
@@ -254,12 +334,13 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
             br[sl],
             iv[sl],
             counts[sl],
+            used[sl],
         )
     if np.any(counts < 0):
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
     truncated = counts > MAX_SOLUTIONS
     counts = np.minimum(counts, MAX_SOLUTIONS)
-    return BatchResult(counts, sols, br, iv, truncated, vertical)
+    return BatchResult(counts, sols, br, iv, truncated, vertical, used)
 
 
 def configurations_along(
@@ -289,7 +370,7 @@ def configurations_along(
     p, e = _check_target(p, e)
     br = _check_branch(branch)
     u = np.ascontiguousarray(check_array(np.atleast_1d(u)[:, None], "u", 1)[:, 0])
-    dx, dy = _line_direction(p, e, br, azimuth)
+    dx, dy = _line_direction(p, e, br[0], azimuth)
     q = np.zeros((len(u), 6))
     ok = np.zeros(len(u), np.bool_)
     K.configurations_along_u(p, e, dx, dy, u, float(br[1]), float(br[2]), design.lengths, q, ok)
@@ -303,11 +384,13 @@ def _check_branch(branch) -> np.ndarray:
     return br
 
 
-def _line_direction(p, e, br, azimuth) -> tuple[float, float]:
-    vertical, psi = _azimuth(p, e, None)
-    if vertical and azimuth is not None:
-        psi = float(azimuth)
-    return br[0] * math.cos(psi), br[0] * math.sin(psi)
+def _line_direction(p, e, sign, azimuth) -> tuple[float, float]:
+    """D for a branch sign, computed exactly as the kernel does (h / |h|, or the azimuth)."""
+    h = math.hypot(e[0], e[1])
+    if h >= K.VERTICAL_EPS:
+        return sign * e[0] / h, sign * e[1] / h
+    psi = _default_vertical_azimuth(p) if azimuth is None else float(azimuth)
+    return sign * math.cos(psi), sign * math.sin(psi)
 
 
 def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None) -> np.ndarray:
@@ -331,7 +414,7 @@ def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None)
     br = _check_branch(branch)
     if not math.isfinite(u):
         raise ValueError(f"u: must be finite, got {u}")
-    dx, dy = _line_direction(p, e, br, azimuth)
+    dx, dy = _line_direction(p, e, br[0], azimuth)
     q = np.empty(6)
     ok = K.configuration_at_u(p, e, dx, dy, float(u), float(br[1]), float(br[2]), design.lengths, q)
     if not ok:

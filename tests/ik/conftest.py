@@ -1,0 +1,44 @@
+import math
+
+import numpy as np
+import pytest
+
+import handarm
+
+
+def random_design(rng):
+    """Unequal lengths and asymmetric limits up to +-180 degrees."""
+    lim = np.radians(rng.uniform(40, 180, (6, 2)))
+    return handarm.ArmDesign(
+        link_lengths=rng.uniform(0.02, 0.08, 7),
+        joint_limits=[(-lo, hi) for lo, hi in lim],
+    )
+
+
+def valid_configurations(design, rng, n):
+    out = []
+    while sum(len(o) for o in out) < n:
+        q = rng.uniform(design.lower, design.upper, (4 * n, 6))
+        out.append(q[handarm.is_valid(design, q)])
+    return np.concatenate(out)[:n]
+
+
+def generator_branch_and_u(design, q):
+    """Branch and u of configurations, computed from joint positions (not by the IK)."""
+    pos = handarm.joint_positions(design, q)
+    p, e = handarm.forward(design, q)
+    l3 = pos[..., 4, :2] - pos[..., 3, :2]
+    d = l3 / np.linalg.norm(l3, axis=-1, keepdims=True)
+    sign = np.where(np.sum(d * e[..., :2], axis=-1) >= 0, 1, -1)
+    u = np.sum((pos[..., 4, :2] - p[..., :2]) * d, axis=-1)
+    elbow_b = np.where(q[..., 1] >= 0, 1, -1)
+    elbow_e = np.where(q[..., 4] >= 0, 1, -1)
+    return np.stack([sign, elbow_b, elbow_e], axis=-1), u
+
+
+@pytest.fixture(scope="session")
+def paper():
+    return handarm.ArmDesign()
+
+
+__all__ = ["random_design", "valid_configurations", "generator_branch_and_u", "math"]

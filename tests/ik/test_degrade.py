@@ -1,0 +1,156 @@
+import math
+
+import numpy as np
+import pytest
+from tests.ik.conftest import valid_configurations
+
+import handarm
+from handarm import ik
+
+
+def angle(a, b):
+    return 2 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+
+
+def solvable(design, p, dirs):
+    return ik.solve_batch(design, np.broadcast_to(p, dirs.shape).copy(), dirs).counts > 0
+
+
+def check_pose(design, r):
+    p2, e2 = handarm.forward(design, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(r.achieved_position, p2.shape), atol=1e-9)
+    np.testing.assert_allclose(e2, np.broadcast_to(r.achieved_direction, e2.shape), atol=1e-9)
+    assert handarm.is_valid(design, r.solutions).all()
+
+
+def pitch_yaw_grid(p, e, design, step_deg=1.0):
+    """Smallest direction change found by a brute-force grid over pitch (yaw kept) and yaw."""
+    pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
+    t = np.radians(np.arange(-180, 180, step_deg))
+    along_pitch = np.stack([np.cos(t) * math.cos(yaw), np.cos(t) * math.sin(yaw), np.sin(t)], 1)
+    along_yaw = np.stack(
+        [
+            math.cos(pitch) * np.cos(t),
+            math.cos(pitch) * np.sin(t),
+            np.full_like(t, math.sin(pitch)),
+        ],
+        1,
+    )
+    dirs = np.concatenate([along_pitch, along_yaw])
+    ok = solvable(design, p, dirs)
+    return float(angle(dirs[ok], e).min()) if ok.any() else math.inf
+
+
+@pytest.fixture(scope="module")
+def four_dof_targets():
+    d = handarm.ArmDesign()
+    rng = np.random.default_rng(11)
+    q = valid_configurations(d, rng, 400)
+    p = handarm.forward(d, q)[0]
+    e = rng.normal(size=(400, 3))
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    b = ik.solve_batch(d, p, e)
+    keep = np.flatnonzero(b.counts == 0)[:25]
+    return d, p[keep], e[keep]
+
+
+def test_four_dof_no_worse_than_grid(four_dof_targets):
+    d, P, E = four_dof_targets
+    assert len(P) >= 10
+    levels = []
+    for p, e in zip(P, E, strict=True):
+        r = ik.solve(d, p, e)
+        levels.append(r.reached_dof)
+        assert r.count > 0
+        check_pose(d, r)
+        np.testing.assert_allclose(r.achieved_position, p, atol=1e-12)
+        assert r.position_error == 0.0
+        if r.reached_dof == 4:
+            assert r.direction_error <= pitch_yaw_grid(p, e, d) + 1e-9
+            # only pitch or only yaw changed
+            pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
+            a = r.achieved_direction
+            same_yaw = (
+                abs(math.sin(math.atan2(a[1], a[0]) - yaw)) < 1e-9 or math.hypot(*a[:2]) < 1e-9
+            )
+            same_pitch = abs(a[2] - e[2]) < 1e-9
+            assert same_yaw or same_pitch
+            assert not np.isnan(pitch)
+    assert 4 in levels
+
+
+def _fibonacci(n):
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    phi = math.pi * (1 + 5**0.5) * i
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+
+
+def test_three_dof_no_worse_than_sphere_grid():
+    d = handarm.ArmDesign()
+    rng = np.random.default_rng(0)
+    # tool points pushed towards the edge of the workspace, random directions: 3 DoF is rare
+    q = valid_configurations(d, rng, 2000)
+    p = handarm.forward(d, q)[0] * 1.06
+    e = rng.normal(size=p.shape)
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    b = ik.solve_batch(d, p, e)
+    found = 0
+    for i in np.flatnonzero(b.counts == 0)[:200]:
+        r = ik.solve(d, p[i], e[i])
+        if r.reached_dof != 3:
+            continue
+        found += 1
+        check_pose(d, r)
+        np.testing.assert_allclose(r.achieved_position, p[i], atol=1e-12)
+        assert pitch_yaw_grid(p[i], e[i], d) == math.inf  # 4 DoF really was impossible
+        sphere = _fibonacci(1000)
+        ok = solvable(d, p[i], sphere)
+        assert r.direction_error <= angle(sphere[ok], e[i]).min() + 1e-6
+    assert found >= 2
+
+
+def test_two_dof_nearest_position_and_pointing():
+    d = handarm.ArmDesign()
+    rng = np.random.default_rng(12)
+    q = valid_configurations(d, rng, 200000)
+    cloud = handarm.forward(d, q)[0]
+    for p in ([0.5, 0.1, 0.2], [0.0, 0.0, 0.3], [-0.2, -0.2, 0.2], [0.1, 0.0, -0.28]):
+        p = np.asarray(p)
+        r = ik.solve(d, p, [1.0, 0.0, 0.0])
+        assert r.reached_dof == 2
+        check_pose(d, r)
+        brute = np.linalg.norm(cloud - p, axis=1).min()
+        assert r.position_error <= brute + 1e-9
+        assert r.position_error == pytest.approx(np.linalg.norm(r.achieved_position - p), abs=1e-12)
+        aim = (p - r.achieved_position) / np.linalg.norm(p - r.achieved_position)
+        # pointing at the target whenever the arm can, else its stretched direction
+        if angle(r.achieved_direction, aim) > 1e-9:
+            assert ik.solve(d, r.achieved_position, aim, degrade=False).count == 0
+
+
+@pytest.mark.parametrize(
+    ("q0_deg", "step"),
+    [([10, 30, -40, 30, 20, 10], [0.0015, 0, 0.0015]), ([20, 40, -30, 10, 40, 30], [0, 0, 0.002])],
+)
+def test_outputs_move_continuously_out_of_reach(q0_deg, step):
+    """A handheld user follows the answer: 2-3 mm target steps, small joint steps."""
+    d = handarm.ArmDesign()
+    q0 = np.radians(q0_deg)
+    p0, e0 = handarm.forward(d, q0)
+    current, levels, jumps = q0, [], []
+    for k in range(90):
+        r = ik.solve(d, p0 + np.asarray(step) * k, e0, current=current)
+        assert r.follow is not None
+        jumps.append(np.abs(r.follow - current).max())
+        current = r.follow
+        levels.append(r.reached_dof)
+    assert levels[0] == 5 and levels[-1] == 2 and 4 in levels
+    assert max(jumps) < math.radians(20)
+
+
+def test_no_degrade_gives_an_empty_result():
+    d = handarm.ArmDesign()
+    r = ik.solve(d, [0.5, 0.0, 0.0], [1, 0, 0], degrade=False)
+    assert r.count == 0 and r.reached_dof == 5

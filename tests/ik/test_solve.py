@@ -1,0 +1,223 @@
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tests.ik.conftest import generator_branch_and_u, random_design, valid_configurations
+
+import handarm
+from handarm import ik
+
+
+def test_fk_targets_are_solved_exactly_and_cover_their_generator(paper):
+    """10000 targets from valid configurations: always solved, exact, generator inside."""
+    rng = np.random.default_rng(0)
+    q = valid_configurations(paper, rng, 10000)
+    p, e = handarm.forward(paper, q)
+    b = ik.solve_batch(paper, p, e)
+    assert np.all(b.counts >= 1)
+    rows = np.arange(b.solutions.shape[1])[None, :] < b.counts[:, None]
+    sols = b.solutions[rows]
+    target_p = np.repeat(p, b.counts, axis=0)
+    target_e = np.repeat(e, b.counts, axis=0)
+    p2, e2 = handarm.forward(paper, sols)
+    np.testing.assert_allclose(p2, target_p, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(e2, target_e, atol=1e-9, rtol=0)
+    assert handarm.is_valid(paper, sols).all()
+    branch, u = generator_branch_and_u(paper, q)
+    same = np.all(b.branches == branch[:, None, :], axis=-1) & rows
+    inside = (b.intervals[..., 0] - 1e-9 <= u[:, None]) & (u[:, None] <= b.intervals[..., 1] + 1e-9)
+    covered = np.any(same & inside, axis=1) | b.truncated
+    assert covered.all(), np.flatnonzero(~covered)[:5]
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_random_designs_fk_targets(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(10):
+        d = random_design(rng)
+        q = valid_configurations(d, rng, 200)
+        p, e = handarm.forward(d, q)
+        b = ik.solve_batch(d, p, e)
+        assert np.all(b.counts >= 1)
+        branch, u = generator_branch_and_u(d, q)
+        rows = np.arange(24)[None, :] < b.counts[:, None]
+        same = np.all(b.branches == branch[:, None, :], axis=-1) & rows
+        inside = (b.intervals[..., 0] - 1e-9 <= u[:, None]) & (
+            u[:, None] <= b.intervals[..., 1] + 1e-9
+        )
+        assert np.all(np.any(same & inside, axis=1) | b.truncated)
+
+
+def _dense_check(design, p, e, n=5000, tol=1e-9):
+    """Sample u densely on every branch; validity by is_valid must match the ranges."""
+    r = ik.solve(design, p, e, degrade=False)
+    reach = design.lengths.sum()
+    mismatches = 0
+    for br in itertools.product((1, -1), repeat=3):
+        coarse = np.linspace(-reach, reach, 20001)
+        _, ok = ik.configurations_along(design, p, e, br, coarse, azimuth=r.azimuth)
+        mine = r.intervals[np.all(r.branches == br, axis=1)]
+        if not ok.any() and len(mine) == 0:
+            continue
+        step = coarse[1] - coarse[0]
+        # the span where the branch exists, and every returned range
+        ends = np.concatenate([coarse[ok], mine.reshape(-1)])
+        u = np.linspace(ends.min() - step, ends.max() + step, n)
+        q, ok = ik.configurations_along(design, p, e, br, u, azimuth=r.azimuth)
+        valid = np.zeros(n, bool)
+        valid[ok] = handarm.is_valid(design, q[ok])
+        if ok.any():
+            p2, e2 = handarm.forward(design, q[ok])
+            np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9, rtol=0)
+        inside = np.zeros(n, bool)
+        near = np.zeros(n, bool)
+        for lo, hi in mine:
+            inside |= (u > lo) & (u < hi)
+            near |= (np.abs(u - lo) < tol) | (np.abs(u - hi) < tol)
+        mismatches += int(np.sum((inside != valid) & ~near))
+    return mismatches
+
+
+def test_completeness_by_dense_sampling():
+    """500 targets; 5000 samples of u per branch: no valid u outside a range, none invalid in."""
+    rng = np.random.default_rng(7)
+    bad = []
+    for k in range(500):
+        design = handarm.ArmDesign() if k % 2 == 0 else random_design(rng)
+        if k % 3 == 0:  # arbitrary targets, mostly partly reachable
+            p, e = rng.uniform(-0.25, 0.25, 3), rng.normal(size=3)
+        else:
+            q = valid_configurations(design, rng, 1)[0]
+            p, e = handarm.forward(design, q)
+        if _dense_check(design, p, e / np.linalg.norm(e)):
+            bad.append(k)
+    assert not bad
+
+
+def test_batch_equals_solve(paper):
+    rng = np.random.default_rng(3)
+    q = valid_configurations(paper, rng, 100)
+    p, e = handarm.forward(paper, q)
+    p = np.concatenate([p, rng.uniform(-0.3, 0.3, (100, 3)), [[0.1, 0.05, 0.05]]])
+    e = np.concatenate([e, rng.normal(size=(100, 3)), [[0.0, 0.0, 1.0]]])
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    b = ik.solve_batch(paper, p, e)
+    for i in range(len(p)):
+        r = ik.solve(paper, p[i], e[i], degrade=False)
+        assert b.counts[i] == r.count
+        np.testing.assert_array_equal(b.solutions[i, : r.count], r.solutions)
+        np.testing.assert_array_equal(b.branches[i, : r.count], r.branches)
+        np.testing.assert_array_equal(b.intervals[i, : r.count], r.intervals)
+        assert np.isnan(b.solutions[i, r.count :]).all()
+
+
+def test_solve_batch_chunks_give_the_same_answer(paper):
+    rng = np.random.default_rng(4)
+    q = valid_configurations(paper, rng, 300)
+    p, e = handarm.forward(paper, q)
+    a = ik.solve_batch(paper, p, e)
+    b = ik.solve_batch(paper, p, e, chunk=7)
+    np.testing.assert_array_equal(a.counts, b.counts)
+    np.testing.assert_array_equal(a.solutions, b.solutions)
+
+
+def test_configuration_at_any_u_inside_a_range(paper):
+    rng = np.random.default_rng(5)
+    for q0 in valid_configurations(paper, rng, 50):
+        p, e = handarm.forward(paper, q0)
+        r = ik.solve(paper, p, e)
+        for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+            u = rng.uniform(lo, hi, 5)
+            for uu in u:
+                q = ik.configuration_at(paper, p, e, br, uu)
+                p2, e2 = handarm.forward(paper, q)
+                np.testing.assert_allclose(p2, p, atol=1e-9)
+                np.testing.assert_allclose(e2, e, atol=1e-9)
+                assert handarm.is_valid(paper, q)
+
+
+def test_solutions_sorted_by_distance_to_current(paper):
+    rng = np.random.default_rng(6)
+    q0 = valid_configurations(paper, rng, 20)
+    for q in q0:
+        p, e = handarm.forward(paper, q)
+        cur = q + rng.normal(scale=0.1, size=6)
+        r = ik.solve(paper, p, e, current=cur)
+        dist = np.sum((r.solutions - cur) ** 2, axis=1)
+        assert np.all(np.diff(dist) >= 0)
+        np.testing.assert_array_equal(r.nearest(cur), r.solutions[0])
+        # follow: inside the ranges, at least as near to current as any midpoint
+        assert np.sum((r.follow - cur) ** 2) <= dist[0] + 1e-15
+        p2, e2 = handarm.forward(paper, r.follow)
+        np.testing.assert_allclose(p2, p, atol=1e-9)
+        assert handarm.is_valid(paper, r.follow)
+
+
+@pytest.mark.parametrize("up", [1.0, -1.0])
+def test_vertical_direction(paper, up):
+    p = np.array([0.12, 0.05, 0.08 * up])
+    e = np.array([0.0, 0.0, up])
+    r = ik.solve(paper, p, e, degrade=False)
+    assert r.vertical and r.count > 0
+    p2, e2 = handarm.forward(paper, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9)
+    np.testing.assert_allclose(e2, np.broadcast_to(e, e2.shape), atol=1e-9)
+    # without current: the documented azimuth (from joint 1 towards the target), if solvable
+    assert math.isclose(r.azimuth, math.atan2(p[1], p[0]), abs_tol=1e-12)
+    # with current: the azimuth of current's l3
+    cur = r.solutions[-1]
+    psi = float(np.angle(np.exp(1j * cur[:3].sum())))
+    r2 = ik.solve(paper, p, e, current=cur, degrade=False)
+    assert r2.vertical
+    assert math.isclose(math.cos(r2.azimuth - psi), 1.0, abs_tol=1e-9)
+    assert np.allclose(handarm.forward(paper, r2.solutions)[0], p, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("p", "e", "message"),
+    [
+        ([0.1, 0, 0], [0, 0, 0], "e: direction has zero length"),
+        ([0.1, 0, np.nan], [1, 0, 0], "p: contains NaN"),
+        ([0.1, 0, 0], [1, 0, np.inf], "e: contains NaN or infinite"),
+        ([0.1, 0], [1, 0, 0], r"p: expected shape \(\.\.\., 3\)"),
+        ([0.1, 0, 0], [[1, 0, 0]], r"e: expected shape \(3,\)"),
+        ("abc", [1, 0, 0], "p: expected numbers"),
+    ],
+)
+def test_bad_input_names_the_argument(paper, p, e, message):
+    with pytest.raises(ValueError, match=message):
+        ik.solve(paper, p, e)
+
+
+def test_bad_batch_row_is_named(paper):
+    E = np.ones((5, 3))
+    E[3] = 0
+    with pytest.raises(ValueError, match=r"E\[3\]: direction has zero length"):
+        ik.solve_batch(paper, np.zeros((5, 3)), E)
+    with pytest.raises(ValueError, match="current: expected shape"):
+        ik.solve(paper, [0.1, 0, 0], [1, 0, 0], current=[0, 0, 0])
+    with pytest.raises(ValueError, match="branch: expected three signs"):
+        ik.configuration_at(paper, [0.1, 0, 0], [1, 0, 0], (1, 0, 1), 0.0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    p=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3),
+    e=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(
+        lambda v: np.linalg.norm(v) > 1e-6
+    ),
+)
+def test_never_a_nan(p, e):
+    d = handarm.ArmDesign()
+    r = ik.solve(d, p, e)
+    for arr in (r.solutions, r.intervals):
+        assert np.all(np.isfinite(arr))
+    assert math.isfinite(r.position_error) and math.isfinite(r.direction_error)
+    if r.count:
+        p2, e2 = handarm.forward(d, r.solutions)
+        np.testing.assert_allclose(p2, np.broadcast_to(r.achieved_position, p2.shape), atol=1e-9)
+        np.testing.assert_allclose(e2, np.broadcast_to(r.achieved_direction, e2.shape), atol=1e-9)
+        assert handarm.is_valid(d, r.solutions).all()
