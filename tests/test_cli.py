@@ -64,7 +64,7 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, content, message, command)
 def test_every_subcommand_has_help(capsys):
     parser = make_parser()
     commands = parser._subparsers._group_actions[0].choices
-    assert {"build", "urdf"} <= set(commands)
+    assert {"build", "urdf", "ik"} <= set(commands)
     for name in commands:
         with pytest.raises(SystemExit) as exc:
             main([name, "--help"])
@@ -86,3 +86,44 @@ def test_readme_and_ci_run_the_same_test_command():
     test_cmd = 'python -m pip install ".[test]" && python -m pytest'
     assert test_cmd in "\n".join(readme.splitlines()[:15])
     assert test_cmd in ci
+
+
+def test_ik_command_table_and_json(capsys):
+    import json
+
+    code, out, err = run(capsys, "ik", "--pos", "0.2", "0.05", "0.05", "--dir", "1", "0", "0.3")
+    assert code == 0, err
+    assert "5 DoF" in out and "branch" in out
+    code, out, err = run(
+        capsys,
+        "ik",
+        "--pos",
+        "0.2",
+        "0.05",
+        "0.05",
+        "--dir",
+        "1",
+        "0",
+        "0.3",
+        "--json",
+        "--current",
+        "0",
+        "30",
+        "-30",
+        "0",
+        "20",
+        "10",
+    )
+    data = json.loads(out)
+    assert data["reached_dof"] == 5 and len(data["solutions"]) >= 1
+    assert len(data["follow_deg"]) == 6
+
+
+def test_ik_command_user_mistakes(capsys):
+    code, _, err = run(capsys, "ik", "--pos", "0.2", "0", "0", "--dir", "0", "0", "0")
+    assert code == 2 and "--dir: direction has zero length" in err
+    assert "Traceback" not in err
+    code, _, err = run(capsys, "ik", "--pos", "0.2", "0", "nan", "--dir", "1", "0", "0")
+    assert code == 2 and "--pos" in err
+    code, _, err = run(capsys, "ik", "--pos", "0.6", "0", "0", "--dir", "1", "0", "0", "--exact")
+    assert code == 1

@@ -6,8 +6,11 @@ A user mistake (missing file, bad TOML, bad value) prints one line and exits wit
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from handarm import __version__
 from handarm._io import write_text_atomic
@@ -56,6 +59,28 @@ def build(design: ArmDesign, out: Path) -> list[Path]:
     return written
 
 
+def cmd_ik(args: argparse.Namespace) -> int:
+    """Every inverse-kinematics solution of one target (angles in degrees)."""
+    from handarm import ik
+
+    design = _load_design(args.design)
+    current = None if args.current is None else np.radians(args.current)
+    try:
+        result = ik.solve(design, args.pos, args.dir, current=current, degrade=not args.exact)
+    except ValueError as exc:
+        # the library names its arguments; say the option the user typed
+        msg = str(exc)
+        for arg, option in (("p:", "--pos:"), ("e:", "--dir:"), ("current:", "--current:")):
+            if msg.startswith(arg):
+                msg = option + msg[len(arg) :]
+        raise UsageError(msg) from None
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(ik.format_result(result), end="")
+    return 0 if result.count else 1
+
+
 def cmd_urdf(args: argparse.Namespace) -> int:
     """Write the design as URDF."""
     design = _load_design(args.design)
@@ -82,6 +107,35 @@ def make_parser() -> argparse.ArgumentParser:
     _add_design_arg(p)
     p.add_argument("--out", default="build", help="output folder (default: build)")
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser(
+        "ik",
+        help="solve the inverse kinematics of one target",
+        description=(cmd_ik.__doc__ + " Exit status 1 when there is no solution at all."),
+    )
+    p.add_argument(
+        "--pos",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("X", "Y", "Z"),
+        help="tool point in metres, base frame",
+    )
+    p.add_argument(
+        "--dir",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("DX", "DY", "DZ"),
+        help="tool direction (any length but zero)",
+    )
+    p.add_argument("--design", metavar="DESIGN.toml", help="arm design (default: the paper's arm)")
+    p.add_argument(
+        "--current", nargs=6, type=float, metavar="Q", help="present joint angles, degrees"
+    )
+    p.add_argument("--exact", action="store_true", help="no graceful degradation")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(func=cmd_ik)
 
     p = sub.add_parser("urdf", help="write the design as URDF", description=cmd_urdf.__doc__)
     _add_design_arg(p)

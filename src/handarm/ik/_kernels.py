@@ -294,25 +294,29 @@ def canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws)
             dx,
             dy,
         )
-    # (iv) P or Q on the line of l0 (y = 0)
+    # Contact events below only matter where the touching point lies on the touched
+    # segment; `slack` keeps candidates that miss it by rounding only.
+    slack = 1e-9 * (b0 + b1 + b2 + b3)
+    # (iv) P or Q on l0 (the x axis from -b0 to 0)
     if dy != 0.0:
         t = -ny / dy
-        n = _push(buf, tags, n, t, lo, hi, BOTH)
-        n = _push(buf, tags, n, t - b3, lo, hi, BOTH)
-    # (v) O or H on L: P or Q at the point
+        x = nx + t * dx
+        if -b0 - slack <= x <= slack:
+            n = _push(buf, tags, n, t, lo, hi, BOTH)
+            n = _push(buf, tags, n, t - b3, lo, hi, BOTH)
+    # (v) O or H on l3: only when L passes through the point; then P or Q is at it
     for xh in (0.0, -b0):
-        t = xh * dx
-        n = _push(buf, tags, n, t, lo, hi, BOTH)
-        n = _push(buf, tags, n, t - b3, lo, hi, BOTH)
-    # (vi) A on L, i.e. A = P(tau + sign b2) with P - A = -sign b2 d
-    if b1 * b1 >= m2:
+        if abs((xh - nx) * dy + ny * dx) <= slack:
+            t = xh * dx
+            n = _push(buf, tags, n, t, lo, hi, BOTH)
+            n = _push(buf, tags, n, t - b3, lo, hi, BOTH)
+    # (vi) A on l3: A on L ahead of P, A = P + b2 d, which needs b2 <= b3
+    if b1 * b1 >= m2 and b2 <= b3 + slack:
         s = math.sqrt(b1 * b1 - m2)
-        for sign in (-1.0, 1.0):
-            for root in (s, -s):
-                t = root - sign * b2
-                ax, ay = nx + root * dx, ny + root * dy
-                tag = _elbow_tag(ax, ay, ax - sign * b2 * dx, ay - sign * b2 * dy)
-                n = _push(buf, tags, n, t, lo, hi, tag)
+        for root in (s, -s):
+            ax, ay = nx + root * dx, ny + root * dy
+            tag = _elbow_tag(ax, ay, ax - b2 * dx, ay - b2 * dy)
+            n = _push(buf, tags, n, root - b2, lo, hi, tag)
     # (vii) H on l2 (segment AP): r C = -2 b2 (P.g), g = H - P, r = |g|.
     poly, r2p, sp, tp = ws[0:7], ws[7:10], ws[10:13], ws[13:16]
     s2, t2, roots, rws = ws[16:21], ws[21:26], ws[26:33], ws[33:]

@@ -24,6 +24,7 @@ __all__ = [
     "solve",
     "solve_batch",
     "branch_of",
+    "format_result",
     "configuration_at",
     "configurations_along",
     "nearest_solution",
@@ -89,6 +90,27 @@ class IKResult:
     def __len__(self) -> int:
         return self.count
 
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which)."""
+        return {
+            "reached_dof": int(self.reached_dof),
+            "position_error_m": float(self.position_error),
+            "direction_error_deg": math.degrees(self.direction_error),
+            "vertical": bool(self.vertical),
+            "azimuth_deg": math.degrees(self.azimuth),
+            "achieved_position_m": _list(self.achieved_position),
+            "achieved_direction": _list(self.achieved_direction),
+            "solutions": [
+                {
+                    "q_deg": np.degrees(q).tolist(),
+                    "branch": [int(b) for b in br],
+                    "u_range_m": iv.tolist(),
+                }
+                for q, br, iv in zip(self.solutions, self.branches, self.intervals, strict=True)
+            ],
+            "follow_deg": None if self.follow is None else np.degrees(self.follow).tolist(),
+        }
+
     def nearest(self, current) -> np.ndarray:
         """The solution closest to ``current`` (Euclidean in joint space), shape (6,)."""
         if self.count == 0:
@@ -122,6 +144,49 @@ class BatchResult:
     truncated: np.ndarray
     vertical: np.ndarray
     azimuth: np.ndarray
+
+
+def _list(x):
+    return None if x is None else np.asarray(x, dtype=float).tolist()
+
+
+def format_result(result: IKResult) -> str:
+    """Human-readable table of an IKResult: joint angles in degrees, ranges in mm."""
+    lines = []
+    level = {
+        5: "5 DoF (exact)",
+        4: "4 DoF (pitch or yaw relaxed)",
+        3: "3 DoF (position only)",
+        2: "2 DoF (out of reach: nearest point, pointing at the target)",
+    }
+    lines.append(f"reached: {level.get(result.reached_dof, result.reached_dof)}")
+    if result.reached_dof < 5:
+        lines.append(
+            f"position error {result.position_error * 1e3:.3f} mm, "
+            f"direction error {math.degrees(result.direction_error):.3f} deg"
+        )
+    if result.vertical:
+        lines.append(
+            f"vertical direction: L taken at azimuth {math.degrees(result.azimuth):.2f} deg"
+        )
+    lines.append(f"{result.count} solution range(s)")
+    if result.count:
+        head = "  #   " + "".join(f"{'q' + str(k):>9}" for k in range(1, 7))
+        lines.append(head + "   branch (d,B,E)   u range (mm)")
+        for i, (q, br, iv) in enumerate(
+            zip(result.solutions, result.branches, result.intervals, strict=True)
+        ):
+            angles = "".join(f"{v:9.2f}" for v in np.degrees(q))
+            signs = " ".join(f"{int(b):+d}" for b in br)
+            lines.append(
+                f"{i + 1:>3}   {angles}   {signs:>14}   [{iv[0] * 1e3:.2f}, {iv[1] * 1e3:.2f}]"
+            )
+    if result.follow is not None:
+        lines.append(
+            "follow (nearest to current): "
+            + " ".join(f"{v:.2f}" for v in np.degrees(result.follow))
+        )
+    return "\n".join(lines) + "\n"
 
 
 def nearest_solution(solutions: np.ndarray, current) -> int:

@@ -1,0 +1,255 @@
+"""IK speed and success: handarm against its peers, on the same targets, in one run.
+
+    python benchmarks/bench_ik.py [--targets 2000] [--batch 200000] [--peer-targets 200]
+
+Targets are forward kinematics of random valid configurations of the paper's arm. A peer
+succeeds on a target when it returns a configuration that reaches it (1e-6 m, 1e-5 rad)
+and passes handarm.is_valid (joint limits and link crossings). Peers: ikpy
+(orientation_mode "X"), scipy least_squares with joint bounds and random restarts, and
+EAIK with joint 3 locked and swept (when EAIK is installed). Prints one table; times are
+medians of repeated runs, ratios are peer time / handarm time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from scipy.optimize import least_squares
+
+import handarm
+from handarm import ik
+from handarm.cad_out import write_urdf
+
+POS_TOL, DIR_TOL = 1e-6, 1e-5
+
+
+def targets(design, n, seed=0):
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(design.lower, design.upper, (4 * n + 100, 6))
+    q = q[handarm.is_valid(design, q)][:n]
+    return handarm.forward(design, q)
+
+
+def reaches(design, q, p, e):
+    q = np.asarray(q, float)
+    if not handarm.is_valid(design, q):
+        return False
+    p2, e2 = handarm.forward(design, q)
+    return np.linalg.norm(p2 - p) < POS_TOL and np.linalg.norm(e2 - e) < DIR_TOL
+
+
+def bench_handarm(design, P, E, batch_n):
+    ik.solve(design, P[0], E[0], degrade=False)  # load the compiled kernels
+    lat = []
+    ok = 0
+    for p, e in zip(P, E, strict=True):
+        t = time.perf_counter()
+        r = ik.solve(design, p, e, degrade=False)
+        lat.append(time.perf_counter() - t)
+        ok += r.count > 0
+    reps = np.tile(np.arange(len(P)), batch_n // len(P) + 1)[:batch_n]
+    BP, BE = P[reps], E[reps]
+    ik.solve_batch(design, BP[:1000], BE[:1000])
+    rates = {}
+    for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
+        numba.set_num_threads(threads)
+        runs = []
+        for _ in range(3):
+            t = time.perf_counter()
+            b = ik.solve_batch(design, BP, BE)
+            runs.append(time.perf_counter() - t)
+        rates[threads] = batch_n / np.median(runs)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    return {
+        "p50": np.median(lat),
+        "p99": np.percentile(lat, 99),
+        "rates": rates,
+        "success": ok / len(P),
+        "batch_success": float(np.mean(b.counts > 0)),
+        "mean_solutions": float(np.mean(b.counts)),
+    }
+
+
+def bench_ikpy(design, P, E):
+    import warnings
+
+    from ikpy.chain import Chain
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "arm.urdf"
+        write_urdf(design, path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            chain = Chain.from_urdf_file(
+                str(path),
+                base_elements=["base_link"],
+                last_link_vector=None,
+                active_links_mask=[False] + [True] * 6 + [False],
+            )
+    lat, ok = [], 0
+    for p, e in zip(P, E, strict=True):
+        t = time.perf_counter()
+        sol = chain.inverse_kinematics(p, e, orientation_mode="X")
+        lat.append(time.perf_counter() - t)
+        ok += reaches(design, sol[1:7], p, e)
+    return {"p50": np.median(lat), "success": ok / len(P)}
+
+
+def bench_least_squares(design, P, E, restarts=20, seed=0):
+    rng = np.random.default_rng(seed)
+    lo, hi = design.lower, design.upper
+
+    def residual(q, p, e):
+        p2, e2 = handarm.forward(design, q)
+        return np.concatenate([p2 - p, 0.05 * (e2 - e)])
+
+    lat, ok = [], 0
+    for p, e in zip(P, E, strict=True):
+        t = time.perf_counter()
+        found = False
+        for _ in range(restarts):
+            fit = least_squares(
+                residual, rng.uniform(lo, hi), bounds=(lo, hi), args=(p, e), xtol=1e-12, ftol=1e-12
+            )
+            if reaches(design, fit.x, p, e):
+                found = True
+                break
+        lat.append(time.perf_counter() - t)
+        ok += found
+    return {"p50": np.median(lat), "success": ok / len(P)}
+
+
+def bench_eaik(design, P, E, sweeps=(8, 128)):
+    try:
+        from eaik.IK_HP import HPRobot
+    except ImportError:
+        return None
+    a = design.lengths
+    H = np.array([[0, 0, 1]] * 3 + [[0, -1, 0]] * 3, float)
+    Pv = np.array([[0, 0, 0]] + [[a[k], 0, 0] for k in range(1, 7)], float)
+    rx90 = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], float)
+    out = {}
+
+    def rz(t):
+        c, s = math.cos(t), math.sin(t)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+    for n in sweeps:
+        values = np.linspace(design.lower[2], design.upper[2], n)
+        robots = [HPRobot(H, Pv, fixed_axes=[(2, float(v))]) for v in values]
+        ok, solve_times = 0, []
+        for p, e in zip(P, E, strict=True):
+            h = math.hypot(e[0], e[1])
+            found = False
+            for sign in (1.0, -1.0):
+                psi = math.atan2(sign * e[1], sign * e[0])
+                s6 = math.atan2(e[2], sign * h)
+                # with joint 3 locked the tool rotation is fixed by (psi, s6)
+                pose = np.eye(4)
+                pose[:3, :3] = rz(psi) @ rx90 @ rz(s6) @ rx90.T
+                pose[:3, 3] = p
+                for robot in robots:
+                    t = time.perf_counter()
+                    sol = robot.IK(pose)
+                    solve_times.append(time.perf_counter() - t)
+                    for q6, ls in zip(sol.Q, sol.is_LS, strict=True):
+                        if ls:
+                            continue
+                        q = (np.asarray(q6) + np.pi) % (2 * np.pi) - np.pi  # locked q3 included
+                        if reaches(design, q, p, e):
+                            found = True
+                            break
+                    if found:
+                        break
+                if found:
+                    break
+            ok += found
+        out[n] = {
+            "solve": np.median(solve_times),
+            "success": ok / len(P),
+            "per_target": np.median(solve_times) * 2 * n,
+        }
+    return out
+
+
+def _cell(x, width, fmt):
+    return f"{x:{width}{fmt}}" if x is not None else f"{'-':>{width}}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--targets", type=int, default=2000)
+    ap.add_argument("--batch", type=int, default=200000)
+    ap.add_argument("--peer-targets", type=int, default=200)
+    args = ap.parse_args()
+    design = handarm.ArmDesign()
+    P, E = targets(design, args.targets)
+    pp, pe = P[: args.peer_targets], E[: args.peer_targets]
+    us = 1e6
+    h = bench_handarm(design, P, E, args.batch)
+    rows = [("handarm solve (all ranges)", h["p50"] * us, h["p99"] * us, h["success"], "1.0")]
+    ikpy = bench_ikpy(design, pp, pe)
+    rows.append(
+        (
+            "ikpy, orientation_mode X",
+            ikpy["p50"] * us,
+            None,
+            ikpy["success"],
+            f"{ikpy['p50'] / h['p50']:.0f}x slower",
+        )
+    )
+    ls_n = max(20, args.peer_targets // 4)
+    lsq = bench_least_squares(design, pp[:ls_n], pe[:ls_n])
+    rows.append(
+        (
+            "scipy least_squares, 20 restarts",
+            lsq["p50"] * us,
+            None,
+            lsq["success"],
+            f"{lsq['p50'] / h['p50']:.0f}x slower",
+        )
+    )
+    eaik = bench_eaik(design, pp, pe)
+    if eaik is None:
+        rows.append(("EAIK locked joint 3 (not installed)", None, None, None, "-"))
+    else:
+        for n, r in eaik.items():
+            rows.append(
+                (
+                    f"EAIK joint 3 locked, {n} values",
+                    r["per_target"] * us,
+                    None,
+                    r["success"],
+                    f"{r['per_target'] / h['p50']:.1f}x "
+                    f"(one locked solve {r['solve'] * us:.1f} us)",
+                )
+            )
+    print(
+        f"targets: {args.targets} FK targets of random valid configurations "
+        f"(peers: first {args.peer_targets}; least_squares: first {ls_n})"
+    )
+    print(f"{'solver':<40} {'p50 us':>10} {'p99 us':>10} {'success':>8}  vs handarm p50")
+    for name, p50, p99, succ, ratio in rows:
+        print(
+            f"{name:<40} {_cell(p50, 10, '.1f')} {_cell(p99, 10, '.1f')} "
+            f"{_cell(succ, 8, '.1%')}  {ratio}"
+        )
+    for threads, rate in h["rates"].items():
+        print(
+            f"handarm solve_batch, {threads} thread(s): {rate:,.0f} targets/s "
+            f"({args.batch} targets, median of 3)"
+        )
+    print(
+        f"handarm: mean solution ranges per target {h['mean_solutions']:.2f}; "
+        f"batch success {h['batch_success']:.1%}"
+    )
+
+
+if __name__ == "__main__":
+    main()
