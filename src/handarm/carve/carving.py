@@ -1,0 +1,321 @@
+"""Space carving (paper II-A.2): each link minus what its neighbours sweep, and the joint
+limits the carved links really allow.
+
+At joint j the distal link turns by q in [lo, hi] relative to the proximal one. The proximal
+link loses the volume the distal link sweeps over [lo, hi]; the distal link loses what the
+proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are grown by
+the print clearance. The *achieved* limit of a joint, each side, is the largest angle before
+the two carved links meet (manifold3d intersection volume, bisection to 0.05 degrees).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+from manifold3d import Manifold, OpType
+
+from handarm._checks import check_design
+from handarm.carve.parts import MM, LinkBlank, Part, link_blank
+from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, prism, sweep_parts
+from handarm.design import ArmDesign
+
+__all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"]
+
+_LIMIT_TOL = math.radians(0.05)
+_CONTACT_VOLUME = 1e-6  # mm^3: less than this is rounding, not contact
+_BORE_WALL = 1.0  # mm of wall around the axle bore that must survive carving
+
+
+@dataclasses.dataclass(frozen=True)
+class CarvedLink:
+    """One carved link: the solid in its link frame (mm) and its blank."""
+
+    blank: LinkBlank
+    solid: Manifold
+
+    @property
+    def name(self) -> str:
+        """Link name: l0 .. l6."""
+        return self.blank.name
+
+    @property
+    def index(self) -> int:
+        """Link index 0..6."""
+        return self.blank.index
+
+
+@dataclasses.dataclass(frozen=True)
+class JointReport:
+    """Requested, carved and achieved limits of one joint (rad) and what stops it."""
+
+    joint: int
+    requested: tuple[float, float]
+    carved: tuple[float, float]
+    achieved: tuple[float, float]
+    stopped_by: tuple[str, str]
+
+    def to_dict(self) -> dict:
+        """JSON-ready, in degrees."""
+        return {
+            "joint": self.joint,
+            "requested_deg": [math.degrees(v) for v in self.requested],
+            "carved_deg": [math.degrees(v) for v in self.carved],
+            "achieved_deg": [math.degrees(v) for v in self.achieved],
+            "stopped_by": {"lower": self.stopped_by[0], "upper": self.stopped_by[1]},
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class CarveResult:
+    """Carved links l0..l6 and the joint reports of joints 1..6."""
+
+    design: ArmDesign
+    links: tuple[CarvedLink, ...]
+    joints: tuple[JointReport, ...]
+    resolution: float
+
+
+def check_carvable(design: ArmDesign) -> None:
+    """Raise ValueError naming the field when the design cannot be carved."""
+    check_design(design)
+    for k, (lo, hi) in enumerate(design.joint_limits):
+        for side, v in (("lower", lo), ("upper", hi)):
+            if abs(v) >= math.pi - 1e-12:
+                raise ValueError(
+                    f"joint_limits[{k}]: {side} {math.degrees(v):g} deg; carving needs limits "
+                    "below 180 degrees (a link cannot fold onto its neighbour)"
+                )
+    for k, a in enumerate(design.link_lengths):
+        if 2 * design.hub_radius >= a:
+            raise ValueError(
+                f"hub_radius: {design.hub_radius * MM:g} mm hubs do not fit on link l{k} "
+                f"({a * MM:g} mm long); hub_radius must be below half of every link length"
+            )
+    if design.beam_width / 2 > design.hub_radius:
+        raise ValueError(
+            f"beam_width: {design.beam_width * MM:g} mm is wider than the hubs "
+            f"({2 * design.hub_radius * MM:g} mm)"
+        )
+
+
+def _to_link(blank: LinkBlank, part: Part) -> Manifold:
+    return prism(part.polygon, part.z0, part.z1).transform(
+        _affine(frame_to_link(blank, part.frame))
+    )
+
+
+def _blank_solid(blank: LinkBlank) -> Manifold:
+    solid = Manifold.batch_boolean([_to_link(blank, p) for p in blank.parts], OpType.Add)
+    return solid - _holes(blank)
+
+
+def _holes(blank: LinkBlank) -> Manifold:
+    cuts = []
+    for h in blank.holes:
+        start, end = np.asarray(h.start, float), np.asarray(h.end, float)
+        axis = end - start
+        length = float(np.linalg.norm(axis))
+        cyl = Manifold.cylinder(length, h.radius, h.radius, 32)
+        # rotate z onto the hole's axis, then place it
+        z = axis / length
+        ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x = np.cross(ref, z)
+        x /= np.linalg.norm(x)
+        y = np.cross(z, x)
+        m = np.eye(4)
+        m[:3, :3] = np.column_stack([x, y, z])
+        m[:3, 3] = start
+        cuts.append(cyl.transform(_affine(frame_to_link(blank, h.frame) @ m)))
+    return Manifold.batch_boolean(cuts, OpType.Add)
+
+
+def _bounds_in(blank: LinkBlank, solid: Manifold, frame: str) -> np.ndarray:
+    """Bounding box (2, 3) of a link solid seen in one of its joint frames."""
+    m = np.linalg.inv(frame_to_link(blank, frame))
+    return np.asarray(solid.transform(_affine(m)).bounding_box()).reshape(2, 3)
+
+
+def _sweep_into_proximal(blanks, solids, j, lo, hi, step, grow) -> Manifold:
+    """What the distal link of joint j sweeps, in the proximal link's frame."""
+    p, d = blanks[j - 1], blanks[j]
+    parts = [part_in_frame(d, part, "prox") for part in d.parts]
+    within = _bounds_in(p, solids[j - 1], "dist")
+    swept = sweep_parts(parts, lo, hi, step, grow, within)
+    return swept.transform(_affine(frame_to_link(p, "dist")))
+
+
+def _sweep_into_distal(blanks, solids, j, lo, hi, step, grow) -> Manifold:
+    """What the proximal link of joint j sweeps, seen from the distal link, in its frame."""
+    p = blanks[j - 1]
+    parts = [part_in_frame(p, part, "dist") for part in p.parts]
+    return sweep_parts(parts, -hi, -lo, step, grow, _bounds_in(blanks[j], solids[j], "prox"))
+
+
+def _healthy(blank: LinkBlank, solid: Manifold) -> bool:
+    """One body, and a full wall around every axle bore."""
+    if solid.is_empty() or len(solid.decompose()) != 1:
+        return False
+    bores = [h for h in blank.holes if h.name.startswith("axle")]
+    for h in bores:
+        for part in blank.parts:
+            if not part.axisymmetric or part.frame != h.frame:
+                continue
+            ring = prism(_disk(h.radius + _BORE_WALL), part.z0, part.z1) - prism(
+                _disk(h.radius), part.z0, part.z1
+            )
+            ring = ring.transform(_affine(frame_to_link(blank, part.frame)))
+            full = ring.volume()
+            if (ring ^ solid).volume() < 0.99 * full:
+                return False
+    return True
+
+
+def _disk(r: float) -> np.ndarray:
+    t = np.linspace(0, 2 * math.pi, 48, endpoint=False)
+    return np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+
+
+def carve(
+    design: ArmDesign,
+    resolution_deg: float = 1.0,
+    *,
+    progress: Callable[[str], None] | None = None,
+) -> CarveResult:
+    """Carve every link of the design and measure the joint limits the links allow.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    resolution_deg : float
+        Largest angle between consecutive poses of a sweep (degrees, 0 < r <= 10).
+    progress : callable, optional
+        Called with a short label after each step (12 sweeps, 7 links, 12 limit searches).
+
+    Returns
+    -------
+    CarveResult
+    """
+    check_carvable(design)
+    if not 0.0 < resolution_deg <= 10.0:
+        raise ValueError(f"resolution_deg: expected 0 < r <= 10 degrees, got {resolution_deg}")
+    step = math.radians(resolution_deg)
+    grow = design.clearance * MM
+    tick = progress or (lambda label: None)
+    blanks = [link_blank(design, k) for k in range(7)]
+    solids = [_blank_solid(b) for b in blanks]
+    carve_limits = []
+    cut_prox: list[Manifold | None] = [None] * 7  # cut made by the joint at the link's prox end
+    cut_dist: list[Manifold | None] = [None] * 7
+    for j in range(1, 7):
+        lo, hi = design.joint_limits[j - 1]
+        lo, hi, sp, sd = _largest_healthy_range(blanks, solids, j, lo, hi, step, grow)
+        carve_limits.append((lo, hi))
+        cut_dist[j - 1], cut_prox[j] = sp, sd
+        tick(f"joint {j} sweeps")
+    links = []
+    for k in range(7):
+        cuts = [c for c in (cut_prox[k], cut_dist[k]) if c is not None]
+        solid = solids[k] - Manifold.batch_boolean(cuts, OpType.Add) if cuts else solids[k]
+        links.append(CarvedLink(blanks[k], solid))
+        tick(f"link l{k} carved")
+    joints = []
+    for j in range(1, 7):
+        joints.append(_joint_report(design, links, j, carve_limits[j - 1]))
+        tick(f"joint {j} limits")
+    return CarveResult(design, tuple(links), tuple(joints), resolution_deg)
+
+
+def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow):
+    """Carve joint j's range if both links survive it, else the largest scaled range that does."""
+
+    def cuts(f):
+        sp = _sweep_into_proximal(blanks, solids, j, lo * f, hi * f, step, grow)
+        sd = _sweep_into_distal(blanks, solids, j, lo * f, hi * f, step, grow)
+        return sp, sd
+
+    def ok(sp, sd):
+        return _healthy(blanks[j - 1], solids[j - 1] - sp) and _healthy(blanks[j], solids[j] - sd)
+
+    sp, sd = cuts(1.0)
+    if ok(sp, sd):
+        return lo, hi, sp, sd
+    good, bad = 0.0, 1.0
+    best = cuts(0.0)
+    for _ in range(10):
+        mid = 0.5 * (good + bad)
+        trial = cuts(mid)
+        if ok(*trial):
+            good, best = mid, trial
+        else:
+            bad = mid
+    return lo * good, hi * good, best[0], best[1]
+
+
+def _in_joint_frame(link: CarvedLink, which: str) -> Manifold:
+    """The carved link expressed in the frame of its proximal or distal joint."""
+    m = np.linalg.inv(frame_to_link(link.blank, which))
+    return link.solid.transform(_affine(m))
+
+
+def _touch(prox: Manifold, dist: Manifold, angle: float) -> float:
+    return (prox ^ dist.rotate([0.0, 0.0, math.degrees(angle)])).volume()
+
+
+def _contact_angle(prox: Manifold, dist: Manifold, start: float, sign: float) -> float:
+    """First angle beyond ``start`` (towards ``sign``) where the links meet; pi if never."""
+    coarse = math.radians(2.0)
+    free = start
+    while True:
+        nxt = free + sign * coarse
+        if abs(nxt) >= math.pi:
+            if _touch(prox, dist, sign * math.pi) <= _CONTACT_VOLUME:
+                return sign * math.pi
+            nxt = sign * math.pi
+        if _touch(prox, dist, nxt) > _CONTACT_VOLUME:
+            hit = nxt
+            break
+        free = nxt
+    while abs(hit - free) > _LIMIT_TOL:
+        mid = 0.5 * (hit + free)
+        if _touch(prox, dist, mid) > _CONTACT_VOLUME:
+            hit = mid
+        else:
+            free = mid
+    return free
+
+
+def _blocking_features(links, j, prox, dist, angle) -> str:
+    """Which parts of the two links meet just past ``angle``."""
+    rot = dist.rotate([0.0, 0.0, math.degrees(angle)])
+    contact = prox ^ rot
+    p_link, d_link = links[j - 1], links[j]
+    names = []
+    for link, frame_name in ((d_link, "prox"), (p_link, "dist")):
+        to_joint = _affine(np.linalg.inv(frame_to_link(link.blank, frame_name)))
+        found = []
+        for part in link.blank.parts:
+            solid = _to_link(link.blank, part).transform(to_joint)
+            if link is d_link:
+                solid = solid.rotate([0.0, 0.0, math.degrees(angle)])
+            if (solid ^ contact).volume() > _CONTACT_VOLUME:
+                found.append(part.name)
+        names.append(f"{link.name} " + (" + ".join(found) if found else "body"))
+    return f"{names[0]} meets {names[1]}"
+
+
+def _joint_report(design, links, j, carved) -> JointReport:
+    prox = _in_joint_frame(links[j - 1], "dist")
+    dist = _in_joint_frame(links[j], "prox")
+    lo, hi = carved
+    achieved, stops = [], []
+    for start, sign in ((lo, -1.0), (hi, 1.0)):
+        angle = _contact_angle(prox, dist, start, sign)
+        achieved.append(angle)
+        if abs(angle) >= math.pi:
+            stops.append("nothing (full turn)")
+        else:
+            stops.append(_blocking_features(links, j, prox, dist, angle + sign * _LIMIT_TOL))
+    return JointReport(j, design.joint_limits[j - 1], carved, tuple(achieved), tuple(stops))
