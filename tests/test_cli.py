@@ -16,18 +16,27 @@ def run(capsys, *argv):
     return code, out, err
 
 
-def test_build_writes_design_urdf_summary(tmp_path, capsys):
-    code, out, err = run(capsys, "build", "--out", str(tmp_path / "b"))
+def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
+    code, out, err = run(capsys, "build", "--out", str(tmp_path / "b"), "--quiet")
     assert code == 0, err
-    assert ArmDesign.from_toml(tmp_path / "b" / "design.toml") == ArmDesign()
-    assert (tmp_path / "b" / "paper_arm.urdf").read_text().startswith("<?xml")
-    assert "joint" in (tmp_path / "b" / "summary.txt").read_text()
+    b = tmp_path / "b"
+    assert ArmDesign.from_toml(b / "design.toml") == ArmDesign()
+    urdf = (b / "paper_arm.urdf").read_text()
+    assert urdf.startswith("<?xml") and "meshes/l3.stl" in urdf and "<inertial>" in urdf
+    assert "joint" in (b / "summary.txt").read_text()
+    assert (b / "plate.3mf").stat().st_size > 1000
+    assert len(list((b / "meshes").glob("l*.stl"))) == 7
+    assert (b / "pictures" / "arm_folded.png").exists()
+    # nothing half-written is left behind
+    assert not list(b.rglob("*.tmp"))
 
 
 def test_build_from_a_design_file(tmp_path, capsys):
     d = ArmDesign(name="mine", link_lengths=[0.04] * 7)
     d.to_toml(tmp_path / "mine.toml")
-    code, _, err = run(capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "o"))
+    code, _, err = run(
+        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "o"), "--quiet"
+    )
     assert code == 0, err
     assert ArmDesign.from_toml(tmp_path / "o" / "design.toml") == d
     assert (tmp_path / "o" / "mine.urdf").exists()
@@ -48,7 +57,7 @@ def test_urdf_command(tmp_path, capsys):
         ("colour = 'red'", "unknown key 'colour'"),
     ],
 )
-@pytest.mark.parametrize("command", ["build", "urdf"])
+@pytest.mark.parametrize("command", ["build", "urdf", "carve"])
 def test_user_mistakes_are_one_line(tmp_path, capsys, content, message, command):
     path = tmp_path / "arm.toml"
     if content is not None:
@@ -64,7 +73,7 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, content, message, command)
 def test_every_subcommand_has_help(capsys):
     parser = make_parser()
     commands = parser._subparsers._group_actions[0].choices
-    assert {"build", "urdf", "ik"} <= set(commands)
+    assert {"build", "urdf", "ik", "carve"} <= set(commands)
     for name in commands:
         with pytest.raises(SystemExit) as exc:
             main([name, "--help"])
@@ -127,3 +136,20 @@ def test_ik_command_user_mistakes(capsys):
     assert code == 2 and "--pos" in err
     code, _, err = run(capsys, "ik", "--pos", "0.6", "0", "0", "--dir", "1", "0", "0", "--exact")
     assert code == 1
+
+
+def test_carve_command(tmp_path, capsys):
+    code, out, err = run(
+        capsys, "carve", "--out", str(tmp_path / "c"), "--quiet", "--resolution", "2"
+    )
+    assert code == 0, err
+    assert "achieved" in out and "total link mass" in out
+    assert (tmp_path / "c" / "carve.json").exists()
+
+
+def test_carve_command_refuses_a_180_degree_limit(tmp_path, capsys):
+    d = ArmDesign().with_limits_deg([135, 180, 135, 125, 150, 150])
+    d.to_toml(tmp_path / "d.toml")
+    code, _, err = run(capsys, "carve", str(tmp_path / "d.toml"), "--out", str(tmp_path / "c"))
+    assert code == 2 and "joint_limits[1]" in err and "below 180" in err
+    assert not (tmp_path / "c").exists()

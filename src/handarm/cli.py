@@ -40,23 +40,45 @@ def cmd_build(args: argparse.Namespace) -> int:
     """Everything for one design: design TOML, URDF, summary."""
     design = _load_design(args.design)
     out = Path(args.out)
-    written = build(design, out)
+    written = build(design, out, quiet=args.quiet)
     for path in written:
         print(path)
     return 0
 
 
-def build(design: ArmDesign, out: Path) -> list[Path]:
-    """Write every output of ``handarm build`` for ``design`` into ``out``; returns the paths."""
+def build(design: ArmDesign, out: Path, *, quiet: bool = False) -> list[Path]:
+    """Write every output of ``handarm build`` for ``design`` into ``out``; returns the paths.
+
+    The design TOML, the summary, and the carving (meshes, 3MF plate, link properties,
+    pictures, and the URDF with meshes and inertials).
+    """
     out.mkdir(parents=True, exist_ok=True)
-    written = [
-        design.to_toml(out / "design.toml"),
-        write_urdf(design, out / f"{design.name}.urdf"),
-    ]
+    written = [design.to_toml(out / "design.toml")]
     summary = out / "summary.txt"
     write_text_atomic(summary, design_summary(design))
     written.append(summary)
+    written += carve_to(design, out, quiet=quiet)
     return written
+
+
+def carve_to(design: ArmDesign, out: Path, *, resolution: float = 1.0, quiet: bool = False):
+    """Carve the design and write the carving outputs into ``out``, with a progress bar."""
+    from tqdm import tqdm
+
+    from handarm.cad_out.carve_files import OUTPUT_STEPS, write_carve_outputs
+    from handarm.carve import CARVE_STEPS, carve, check_carvable
+
+    check_carvable(design)
+    with tqdm(
+        total=CARVE_STEPS + OUTPUT_STEPS, desc="carving", unit="step", disable=quiet, leave=False
+    ) as bar:
+
+        def tick(label: str) -> None:
+            bar.set_postfix_str(label)
+            bar.update()
+
+        result = carve(design, resolution, progress=tick)
+        return write_carve_outputs(result, out, progress=tick)
 
 
 def cmd_ik(args: argparse.Namespace) -> int:
@@ -79,6 +101,29 @@ def cmd_ik(args: argparse.Namespace) -> int:
     else:
         print(ik.format_result(result), end="")
     return 0 if result.count else 1
+
+
+def cmd_carve(args: argparse.Namespace) -> int:
+    """Carve the links: STL per link, a 3MF plate, properties, pictures, URDF with meshes."""
+    design = _load_design(args.design)
+    out = Path(args.out)
+    for path in carve_to(design, out, resolution=args.resolution, quiet=args.quiet):
+        if path.name == "carve.json":
+            _print_limits(path)
+    print(f"wrote {out}")
+    return 0
+
+
+def _print_limits(path: Path) -> None:
+    data = json.loads(path.read_text())
+    print("joint  requested (deg)     achieved (deg)      stopped by (upper side)")
+    for j in data["joints"]:
+        req, ach = j["requested_deg"], j["achieved_deg"]
+        print(
+            f"{j['joint']:>5}  {req[0]:7.2f} {req[1]:7.2f}     {ach[0]:7.2f} {ach[1]:7.2f}     "
+            f"{j['stopped_by']['upper']}"
+        )
+    print(f"total link mass {data['total_mass_kg'] * 1e3:.1f} g")
 
 
 def cmd_urdf(args: argparse.Namespace) -> int:
@@ -106,7 +151,25 @@ def make_parser() -> argparse.ArgumentParser:
     )
     _add_design_arg(p)
     p.add_argument("--out", default="build", help="output folder (default: build)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser(
+        "carve",
+        help="carve printable links and measure their joint limits",
+        description=cmd_carve.__doc__,
+    )
+    _add_design_arg(p)
+    p.add_argument("--out", default="build/carve", help="output folder (default: build/carve)")
+    p.add_argument(
+        "--resolution",
+        type=float,
+        default=1.0,
+        metavar="DEG",
+        help="largest angle between swept poses, degrees (default 1)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_carve)
 
     p = sub.add_parser(
         "ik",

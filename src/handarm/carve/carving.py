@@ -1,11 +1,11 @@
-"""Space carving (paper II-A.2): each link minus what its neighbours sweep, and the joint
-limits the carved links really allow.
+"""Space carving (paper II-A.2): each link minus what its neighbours sweep.
 
-At joint j the distal link turns by q in [lo, hi] relative to the proximal one. The proximal
-link loses the volume the distal link sweeps over [lo, hi]; the distal link loses what the
-proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are grown by
-the print clearance. The *achieved* limit of a joint, each side, is the largest angle before
-the two carved links meet (manifold3d intersection volume, bisection to 0.05 degrees).
+At joint j the distal link turns by q in [lo, hi] relative to the proximal one. The
+proximal link loses the volume the distal link sweeps over [lo, hi]; the distal link loses
+what the proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are
+grown by the print clearance. The *achieved* limit of a joint, each side, is the largest
+angle before the two carved links meet (manifold3d intersection volume, bisection to
+0.05 degrees).
 """
 
 from __future__ import annotations
@@ -219,7 +219,8 @@ def carve(
     for k in range(7):
         cuts = [c for c in (cut_prox[k], cut_dist[k]) if c is not None]
         solid = solids[k] - Manifold.batch_boolean(cuts, OpType.Add) if cuts else solids[k]
-        links.append(CarvedLink(blanks[k], solid))
+        # drop the zero-area slivers booleans leave, so that STL readers see a closed mesh
+        links.append(CarvedLink(blanks[k], solid.simplify(1e-6)))
         tick(f"link l{k} carved")
     joints = []
     for j in range(1, 7):
@@ -301,8 +302,11 @@ def _blocking_features(links, j, prox, dist, angle) -> str:
             if link is d_link:
                 solid = solid.rotate([0.0, 0.0, math.degrees(angle)])
             if (solid ^ contact).volume() > _CONTACT_VOLUME:
-                found.append(part.name)
-        names.append(f"{link.name} " + (" + ".join(found) if found else "body"))
+                # "fork plate + at joint 2" and "fork plate - ..." are one feature to a reader
+                name = part.name.replace(" + ", " ").replace(" - ", " ")
+                if name not in found:
+                    found.append(name)
+        names.append(f"{link.name} " + (", ".join(found) if found else "body"))
     return f"{names[0]} meets {names[1]}"
 
 

@@ -144,19 +144,34 @@ def _fork(g: JointGeometry, frame: str, length: float, clear: float) -> list[Par
     ]
 
 
-def _fork_clearance(design: ArmDesign, g: JointGeometry) -> float:
-    """How far behind joint j the fork's bridge must start (mm).
+#: Forks are sized so that the paper's largest limit (150 degrees) carves cleanly; a larger
+#: request moves the bridge further back (less material), up to the fork's end.
+NOMINAL_LIMIT = math.radians(150.0)
 
-    Nothing of this link may turn through the neighbour's tongue. At a limit of +-lim the
-    two beams meet at an angle of 180 - lim; both (half-width h, grown by the clearance)
-    fit side by side in that wedge beyond r = h / tan(wedge / 2), so this link's bridge and
-    beam stop there.
+
+def _wedge_radius(design: ArmDesign, limit: float) -> float:
+    """Where two beams fit side by side in the wedge a +-limit range leaves (mm).
+
+    At a limit of +-lim the two beams meet at an angle of 180 - lim; both (half-width h,
+    grown by the clearance) fit in that wedge beyond r = h / tan(wedge / 2).
     """
-    c = design.clearance * MM
-    h = design.beam_width * MM / 2 + 2 * c
+    h = design.beam_width * MM / 2 + 2 * design.clearance * MM
+    wedge = max(math.pi - limit, math.radians(6.0)) - math.radians(2.0)
+    return h / math.tan(wedge / 2)
+
+
+def _fork_sizes(design: ArmDesign, g: JointGeometry, a: float) -> tuple[float, float]:
+    """(fork length, bridge start) behind joint j, in mm.
+
+    The fork's length depends on the design's sizes only; the bridge (and the beam of the
+    link) stop short of the neighbour's tongue and of the wedge the joint's range leaves
+    for the two beams. A larger range only moves the bridge back: it never adds material.
+    """
+    tongue = g.tongue_radius + 2 * design.clearance * MM + 0.5
+    length = max(0.5 * a, max(tongue, _wedge_radius(design, NOMINAL_LIMIT)) + 4.0)
     lo, hi = design.joint_limits[g.joint - 1]
-    wedge = max(math.pi - max(abs(lo), abs(hi)), math.radians(6.0)) - math.radians(2.0)
-    return max(g.tongue_radius + 2 * c + 0.5, h / math.tan(wedge / 2))
+    clear = max(tongue, _wedge_radius(design, max(NOMINAL_LIMIT, abs(lo), abs(hi))))
+    return length, min(clear, length - 3.0)
 
 
 def _tongue(g: JointGeometry) -> Part:
@@ -188,7 +203,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
         # the handle stub: base frame = joint 1's frame; cables leave through the end plate
         g = joint_geometry(design, 1)
         w = g.fork_width / 2
-        clear = _fork_clearance(design, g)
+        _, clear = _fork_sizes(design, g, a)
         parts += _fork(g, "dist", length=a, clear=clear)
         parts.append(Part("handle", "dist", _box(-a, -clear, -bw, bw), -w, w))
         plate = 4.0
@@ -216,8 +231,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     g_dist = joint_geometry(design, k + 1)
     # the fork runs back along half the link; its bridge and the beam stop short of the
     # neighbour's tongue
-    clear = _fork_clearance(design, g_dist)
-    length = max(clear + 4.0, 0.5 * a)
+    length, clear = _fork_sizes(design, g_dist, a)
     dist = np.eye(4)
     dist[0, 3] = a
     if k == 3:

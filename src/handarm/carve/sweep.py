@@ -37,8 +37,9 @@ def prism(polygon: np.ndarray, z0: float, z1: float) -> Manifold:
 
 
 def part_in_frame(blank: LinkBlank, part: Part, frame: str) -> Part:
-    """The part as a prism in another joint frame of its link (a bounding prism if the axles
-    cross, as on l3).
+    """The part as a prism in another joint frame of its link.
+
+    Where the two axles cross (on l3) it is the bounding prism, which contains the part.
     """
     if part.frame == frame:
         return part

@@ -1,0 +1,143 @@
+"""Everything ``handarm carve`` writes for a carved design.
+
+::
+
+    OUT/meshes/l0.stl .. l6.stl   binary STL per link, print pose, mm
+    OUT/plate.3mf                 all links on one plate, mm
+    OUT/links/l0.json .. l6.json  per link: volume, mass, centre of mass, inertia, bounding box,
+                                  minimum cross-section, requested and achieved limits (SI)
+    OUT/carve.json                every link and joint in one file (degrees for limits)
+    OUT/pictures/*.png            each link; the arm straight and folded
+    OUT/NAME.urdf                 the URDF with the meshes and their inertials
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from handarm._io import write_text_atomic
+from handarm.cad_out.meshes import (
+    link_properties,
+    print_pose,
+    rpy_from_matrix,
+    write_3mf,
+    write_stl,
+)
+from handarm.cad_out.pictures import arm_picture, folded_pose, link_picture
+from handarm.cad_out.urdf import LINK_NAMES, write_urdf
+from handarm.carve.carving import CarveResult
+
+__all__ = ["write_carve_outputs", "urdf_mesh_elements", "OUTPUT_STEPS"]
+
+#: Progress ticks write_carve_outputs makes (for a progress bar's total).
+OUTPUT_STEPS = 7 + 1 + 7 + 9 + 2
+
+
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def urdf_mesh_elements(result: CarveResult, properties, mesh_dir: str = "meshes") -> dict:
+    """URDF children (visual, collision, inertial) per link name, for ``urdf_string``."""
+    extras = {}
+    for link, props in zip(result.links, properties, strict=True):
+        back = np.linalg.inv(print_pose(link))  # print pose (mm) -> link frame (mm)
+        xyz = " ".join(_f(v * 1e-3) for v in back[:3, 3])
+        rpy = " ".join(_f(v) for v in rpy_from_matrix(back[:3, :3]))
+        elements = []
+        for tag in ("visual", "collision"):
+            el = ET.Element(tag)
+            ET.SubElement(el, "origin", xyz=xyz, rpy=rpy)
+            geom = ET.SubElement(el, "geometry")
+            ET.SubElement(
+                geom, "mesh", filename=f"{mesh_dir}/{link.name}.stl", scale="0.001 0.001 0.001"
+            )
+            elements.append(el)
+        inertial = ET.Element("inertial")
+        ET.SubElement(
+            inertial, "origin", xyz=" ".join(_f(v) for v in props["center_of_mass_m"]), rpy="0 0 0"
+        )
+        ET.SubElement(inertial, "mass", value=_f(props["mass_kg"]))
+        i = np.asarray(props["inertia_kg_m2"])
+        ET.SubElement(
+            inertial,
+            "inertia",
+            ixx=_f(i[0, 0]),
+            ixy=_f(i[0, 1]),
+            ixz=_f(i[0, 2]),
+            iyy=_f(i[1, 1]),
+            iyz=_f(i[1, 2]),
+            izz=_f(i[2, 2]),
+        )
+        elements.append(inertial)
+        extras[LINK_NAMES[link.index]] = elements
+    return extras
+
+
+def _limits_of(result: CarveResult, k: int) -> list[dict]:
+    """Reports of the joints at link k's ends."""
+    return [j.to_dict() for j in result.joints if j.joint in (k, k + 1)]
+
+
+def write_carve_outputs(
+    result: CarveResult, out: str | Path, *, progress: Callable[[str], None] | None = None
+) -> list[Path]:
+    """Write every carving output into ``out``; returns the paths written."""
+    tick = progress or (lambda label: None)
+    out = Path(out)
+    design = result.design
+    written = []
+    props = []
+    for link in result.links:
+        written.append(write_stl(link, out / "meshes" / f"{link.name}.stl"))
+        tick(f"{link.name}.stl")
+    written.append(write_3mf(result.links, out / "plate.3mf"))
+    tick("plate.3mf")
+    for link in result.links:
+        p = link_properties(link, design.density)
+        p["joints"] = _limits_of(result, link.index)
+        props.append(p)
+        path = out / "links" / f"{link.name}.json"
+        write_text_atomic(path, json.dumps(p, indent=2) + "\n")
+        written.append(path)
+        tick(f"{link.name}.json")
+    for link in result.links:
+        written.append(link_picture(result, link.index, out / "pictures" / f"{link.name}.png"))
+        tick(f"{link.name}.png")
+    written.append(
+        arm_picture(
+            result,
+            np.zeros(6),
+            out / "pictures" / "arm_straight.png",
+            "carved arm, straight (q = 0)",
+        )
+    )
+    tick("arm_straight.png")
+    q = folded_pose(result)
+    title = "carved arm folded: q = " + ", ".join(f"{math.degrees(v):.0f}" for v in q) + " deg"
+    written.append(arm_picture(result, q, out / "pictures" / "arm_folded.png", title))
+    tick("arm_folded.png")
+    summary = {
+        "design": design.name,
+        "resolution_deg": result.resolution,
+        "joints": [j.to_dict() for j in result.joints],
+        "links": props,
+        "total_mass_kg": sum(p["mass_kg"] for p in props),
+    }
+    path = out / "carve.json"
+    write_text_atomic(path, json.dumps(summary, indent=2) + "\n")
+    written.append(path)
+    tick("carve.json")
+    written.append(
+        write_urdf(
+            design, out / f"{design.name}.urdf", link_extras=urdf_mesh_elements(result, props)
+        )
+    )
+    tick("urdf")
+    return written

@@ -1,0 +1,96 @@
+import json
+import struct
+
+import numpy as np
+import pytest
+import trimesh
+import yourdfpy
+
+import handarm
+import handarm.cad_out.meshes
+from handarm.cad_out.carve_files import write_carve_outputs
+from handarm.carve import carve
+
+
+@pytest.fixture(scope="module")
+def result():
+    return carve(handarm.ArmDesign())
+
+
+@pytest.fixture(scope="module")
+def out(result, tmp_path_factory):
+    out = tmp_path_factory.mktemp("carve")
+    write_carve_outputs(result, out)
+    return out
+
+
+def test_binary_stl_per_link_in_print_pose(result, out):
+    for link in result.links:
+        path = out / "meshes" / f"{link.name}.stl"
+        data = path.read_bytes()
+        (n,) = struct.unpack("<I", data[80:84])
+        assert len(data) == 84 + 50 * n  # binary STL
+        mesh = trimesh.load(path, file_type="stl")
+        assert mesh.volume == pytest.approx(link.solid.volume(), rel=1e-6)
+        assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-5)  # on the bed (float32 STL)
+        assert mesh.is_watertight
+
+
+def test_3mf_plate_holds_every_link(result, out):
+    scene = trimesh.load(out / "plate.3mf")
+    assert len(scene.geometry) == 7
+    volumes = sorted(g.volume for g in scene.geometry.values())
+    expected = sorted(link.solid.volume() for link in result.links)
+    np.testing.assert_allclose(volumes, expected, rtol=1e-6)
+    # laid out without overlaps
+    boxes = [scene.graph[name][0] for name in scene.graph.nodes_geometry]
+    assert len(boxes) == 7
+
+
+def test_link_json(result, out):
+    d = result.design
+    for link in result.links:
+        data = json.loads((out / "links" / f"{link.name}.json").read_text())
+        vol = link.solid.volume() * 1e-9
+        assert data["volume_m3"] == pytest.approx(vol, rel=1e-6)
+        assert data["mass_kg"] == pytest.approx(vol * d.density, rel=1e-6)
+        inertia = np.asarray(data["inertia_kg_m2"])
+        np.testing.assert_allclose(inertia, inertia.T, atol=1e-15)
+        assert np.all(np.linalg.eigvalsh(inertia) > 0)
+        assert data["min_cross_section_m2"] > 0
+        assert data["bodies"] == 1 and data["watertight"]
+        assert all("achieved_deg" in j for j in data["joints"])
+    summary = json.loads((out / "carve.json").read_text())
+    assert len(summary["joints"]) == 6 and len(summary["links"]) == 7
+
+
+def test_pictures(out):
+    for name in [f"l{k}" for k in range(7)] + ["arm_straight", "arm_folded"]:
+        data = (out / "pictures" / f"{name}.png").read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000
+
+
+def test_urdf_meshes_sit_in_their_link_frames(result, out):
+    d = result.design
+    robot = yourdfpy.URDF.load(str(out / f"{d.name}.urdf"), load_meshes=False)
+    names = [f"joint{k}" for k in range(1, 7)]
+    rng = np.random.default_rng(0)
+    q = rng.uniform(d.lower, d.upper, (20, 6))
+    frames = handarm.joint_frames(d, q)
+    t_ref = handarm.forward_matrix(d, q)
+    for i in range(len(q)):
+        robot.update_cfg(dict(zip(names, q[i], strict=True)))
+        np.testing.assert_allclose(robot.get_transform("tool", "base_link"), t_ref[i], atol=1e-12)
+        for k, link_name in enumerate(["base_link"] + [f"link{n}" for n in range(1, 7)]):
+            visual = robot.link_map[link_name].visuals[0]
+            mesh = trimesh.load(out / visual.geometry.mesh.filename, file_type="stl")
+            mesh.apply_scale(visual.geometry.mesh.scale[0])
+            mesh.apply_transform(robot.get_transform(link_name, "base_link") @ visual.origin)
+            ours = handarm.cad_out.meshes.to_trimesh(result.links[k].solid)
+            ours.apply_scale(1e-3)
+            if k > 0:
+                ours.apply_transform(frames[i, k - 1])
+            np.testing.assert_allclose(mesh.bounds, ours.bounds, atol=1e-7)  # float32 STL
+    inertial = robot.link_map["link2"].inertial
+    props = json.loads((out / "links" / "l2.json").read_text())
+    assert inertial.mass == pytest.approx(props["mass_kg"])

@@ -1,0 +1,152 @@
+import math
+
+import numpy as np
+import pytest
+import trimesh
+from manifold3d import CrossSection, OpType
+
+import handarm
+from handarm.cad_out.meshes import to_trimesh
+from handarm.carve import carve, check_carvable, link_blank
+from handarm.carve.carving import _in_joint_frame
+from handarm.carve.parts import Part
+from handarm.carve.sweep import sweep_parts
+
+
+@pytest.fixture(scope="module")
+def carved():
+    return carve(handarm.ArmDesign())
+
+
+def test_every_link_is_one_watertight_body(carved):
+    assert [link.name for link in carved.links] == [f"l{k}" for k in range(7)]
+    for link in carved.links:
+        mesh = to_trimesh(link.solid)
+        assert mesh.is_volume, link.name
+        assert mesh.volume > 1000.0  # mm^3
+        assert len(link.solid.decompose()) == 1
+        assert len(mesh.split(only_watertight=False)) == 1
+
+
+def test_adjacent_links_never_meet_in_the_requested_range(carved):
+    """Sampled every degree over each joint's whole requested range."""
+    for j in range(1, 7):
+        prox = _in_joint_frame(carved.links[j - 1], "dist")
+        dist = _in_joint_frame(carved.links[j], "prox")
+        lo, hi = carved.design.joint_limits[j - 1]
+        for deg in np.arange(math.degrees(lo), math.degrees(hi) + 1e-9, 1.0):
+            overlap = (prox ^ dist.rotate([0.0, 0.0, float(deg)])).volume()
+            assert overlap < 1e-6, (j, deg, overlap)
+
+
+def test_achieved_limits_reach_the_request_and_name_the_stop(carved):
+    for report in carved.joints:
+        lo, hi = report.requested
+        assert report.carved == (lo, hi)
+        assert report.achieved[0] <= lo + 1e-12
+        assert report.achieved[1] >= hi - 1e-12
+        for side in report.stopped_by:
+            assert " meets " in side
+
+
+def test_achieved_limit_is_where_the_links_meet(carved):
+    """Just past the achieved angle the carved links overlap; just before they do not."""
+    j = 2
+    report = carved.joints[j - 1]
+    prox = _in_joint_frame(carved.links[j - 1], "dist")
+    dist = _in_joint_frame(carved.links[j], "prox")
+    hi = report.achieved[1]
+    before = (prox ^ dist.rotate([0, 0, math.degrees(hi - math.radians(0.01))])).volume()
+    after = (prox ^ dist.rotate([0, 0, math.degrees(hi + math.radians(0.2))])).volume()
+    assert before < 1e-6 < after
+
+
+def _rotate(poly, t):
+    c, s = math.cos(t), math.sin(t)
+    return poly @ np.array([[c, s], [-s, c]])
+
+
+@pytest.mark.parametrize("step_deg", [1.0, 5.0])
+def test_sweep_covers_a_dense_union_of_rotated_copies(step_deg):
+    """No rotated copy of a part sticks out of its sweep (0.05 degree copies)."""
+    poly = np.array([[12.0, -6.0], [48.0, -4.0], [50.0, 7.0], [14.0, 6.0]])
+    part = Part("test", "prox", poly, -3.0, 3.0)
+    lo, hi = math.radians(-70.0), math.radians(95.0)
+    swept = sweep_parts([part], lo, hi, math.radians(step_deg), grow=0.0)
+    section = swept.slice(0.0)
+    copies = [
+        CrossSection.hull_points(_rotate(poly, t))
+        for t in np.linspace(lo, hi, int(math.degrees(hi - lo) / 0.05) + 1)
+    ]
+    dense = CrossSection.batch_boolean(copies, OpType.Add)
+    assert (dense - section).area() < 1e-9
+    # and it is not wildly larger: the excess is at most the sagitta band
+    assert section.area() < dense.area() * 1.02
+    lo_z, hi_z = np.asarray(swept.bounding_box()).reshape(2, 3)[:, 2]
+    assert lo_z <= -3.0 and hi_z >= 3.0
+
+
+def test_larger_limits_never_add_material():
+    base = handarm.ArmDesign().with_limits_deg([100, 110, 100, 90, 110, 110])
+    wider = base.with_limits_deg([135, 150, 135, 125, 150, 150])
+    a, b = carve(base, 2.0), carve(wider, 2.0)
+    for small, large in zip(a.links, b.links, strict=True):
+        extra = (large.solid - small.solid).volume()
+        assert extra < 1e-3, (large.name, extra)
+        assert large.solid.volume() <= small.solid.volume() + 1e-6
+
+
+def test_unreachable_limit_is_reported_not_broken():
+    d = handarm.ArmDesign().with_limits_deg([135, 179, 135, 125, 150, 150])
+    result = carve(d, 2.0)
+    report = result.joints[1]
+    # carving the full range with the neighbours' blanks would cut a link in two
+    assert report.carved[1] < math.radians(179)
+    # what the carved links allow is reported, and it falls short of the request
+    assert report.achieved[1] < math.radians(179)
+    assert report.achieved[1] >= report.carved[1]
+    for link in result.links:
+        assert len(link.solid.decompose()) == 1
+        assert to_trimesh(link.solid).is_volume
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"clearance": 0.0}, "clearance: must be > 0"),
+        ({"clearance": -0.1}, "clearance: must be > 0"),
+        ({"hub_radius": 0.03}, "hub_radius: .* do not fit on link"),
+        (
+            {"joint_limits": [(-math.pi, math.pi)] + [(-2, 2)] * 5},
+            r"joint_limits\[0\]: .* below 180",
+        ),
+        ({"beam_width": 0.03}, "beam_width: .* wider than the hubs"),
+    ],
+)
+def test_bad_parameters_name_the_field(changes, message):
+    with pytest.raises(ValueError, match=message):
+        check_carvable(handarm.ArmDesign(**changes))
+
+
+def test_resolution_is_checked():
+    with pytest.raises(ValueError, match="resolution_deg"):
+        carve(handarm.ArmDesign(), 0.0)
+
+
+def test_forks_widen_towards_the_base():
+    d = handarm.ArmDesign()
+    widths = []
+    for k in range(6):
+        blank = link_blank(d, k)
+        bridge = next(p for p in blank.parts if p.name.startswith("fork bridge"))
+        widths.append(bridge.z1 - bridge.z0)
+    assert all(np.diff(widths) < 0)
+    # room for 6 - j idlers beside the tongue at joint j
+    assert widths[0] - widths[5] == pytest.approx(5 * d.idler_width * 1000)
+
+
+def test_mass_properties_match_trimesh(carved):
+    link = carved.links[2]
+    mesh = to_trimesh(link.solid)
+    assert isinstance(mesh, trimesh.Trimesh)
+    assert mesh.volume == pytest.approx(link.solid.volume(), rel=1e-9)
