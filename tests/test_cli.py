@@ -1,3 +1,4 @@
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -27,6 +28,10 @@ def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
     assert (b / "plate.3mf").stat().st_size > 1000
     assert len(list((b / "meshes").glob("l*.stl"))) == 7
     assert (b / "pictures" / "arm_folded.png").exists()
+    controller = json.loads((b / "controller" / "controller.json").read_text())
+    # the carving's achieved limits, within the design's
+    assert controller["joint_limits_rad"][0][1] == pytest.approx(ArmDesign().upper[0])
+    assert (b / "controller" / "arm_config.h").exists()
     # nothing half-written is left behind
     assert not list(b.rglob("*.tmp"))
 
@@ -73,10 +78,13 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, content, message, command)
 def test_every_subcommand_has_help(capsys):
     parser = make_parser()
     commands = parser._subparsers._group_actions[0].choices
-    assert {"build", "urdf", "ik", "carve"} <= set(commands)
-    for name in commands:
+    assert {"build", "urdf", "ik", "carve", "bridge"} <= set(commands)
+    bridge = commands["bridge"]._subparsers._group_actions[0].choices
+    assert {"export", "size", "apply", "calibrate", "read", "goto", "emulate"} <= set(bridge)
+    argvs = [[name, "--help"] for name in commands] + [["bridge", b, "--help"] for b in bridge]
+    for argv in argvs:
         with pytest.raises(SystemExit) as exc:
-            main([name, "--help"])
+            main(argv)
         assert exc.value.code == 0
         assert "usage: handarm" in capsys.readouterr().out
 

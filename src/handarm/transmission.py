@@ -10,6 +10,7 @@ and virtual work gives tau_joint = K^T tau_motor.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -19,6 +20,10 @@ from handarm._checks import check_array, check_design
 from handarm.design import ArmDesign
 
 __all__ = [
+    "MotorRange",
+    "motor_ranges",
+    "ticks_from_motor",
+    "motor_from_ticks",
     "STALL_TORQUE",
     "NO_LOAD_SPEED",
     "coupling_matrix",
@@ -86,3 +91,75 @@ def joint_velocity_limits(design: ArmDesign, motor_speed: float = NO_LOAD_SPEED)
     Turning joint j alone moves motor k at K_kj * qdot_j, so qdot_j <= speed / max_k |K_kj|.
     """
     return motor_speed / np.abs(coupling_matrix(design)).max(axis=0)
+
+
+TICKS_PER_RADIAN = 4096 / (2.0 * math.pi)
+_MULTI_TURN_LIMIT = 28672
+_ONE_TURN = 4095  # joint mode: Goal Position 0..4095
+
+
+@dataclasses.dataclass(frozen=True)
+class MotorRange:
+    """The angles motor k travels over the joint-limit box and the servo mode that covers it.
+
+    ``lo``/``hi`` are motor angles (rad) relative to the zero pose; ``mode`` is "joint" when
+    the travel fits in one turn (0..4095 ticks) and "multi-turn" otherwise.
+    """
+
+    motor: int
+    lo: float
+    hi: float
+    mode: str
+
+    @property
+    def travel_ticks(self) -> float:
+        """Travel in encoder ticks."""
+        return (self.hi - self.lo) * TICKS_PER_RADIAN
+
+
+def motor_ranges(design: ArmDesign, lower=None, upper=None) -> list[MotorRange]:
+    """Travel of each motor over the joint-limit box (the design's, or ``lower``/``upper``).
+
+    phi = K q is linear, so over a box each motor's extremes are at the box's corners:
+    sum over j of min/max of K_kj * (lo_j, hi_j).
+
+    Raises
+    ------
+    ValueError
+        If a motor would need more than the multi-turn mode's +-28672 ticks (allowing for
+        the up to one turn the zero pose may sit at after power-on).
+    """
+    k = coupling_matrix(design)
+    lo = design.lower if lower is None else np.asarray(lower, float)
+    hi = design.upper if upper is None else np.asarray(upper, float)
+    a, b = k * lo[None, :], k * hi[None, :]
+    mins, maxs = np.minimum(a, b).sum(axis=1), np.maximum(a, b).sum(axis=1)
+    out = []
+    for m in range(6):
+        span = (maxs[m] - mins[m]) * TICKS_PER_RADIAN
+        reach = max(abs(mins[m]), abs(maxs[m])) * TICKS_PER_RADIAN
+        if span <= _ONE_TURN:
+            mode = "joint"
+        elif reach + 4096 <= _MULTI_TURN_LIMIT:
+            mode = "multi-turn"
+        else:
+            raise ValueError(
+                f"joint_limits: motor {m + 1} would turn {math.degrees(maxs[m] - mins[m]):.0f} "
+                f"degrees ({reach:.0f} ticks from the zero pose); the MX-64 multi-turn mode "
+                f"reaches +-{_MULTI_TURN_LIMIT - 4096} ticks beyond its power-on turn. Use "
+                "larger motor pulleys, smaller joint pulleys or smaller limits"
+            )
+        out.append(MotorRange(m + 1, float(mins[m]), float(maxs[m]), mode))
+    return out
+
+
+def ticks_from_motor(phi, offsets) -> np.ndarray:
+    """Raw encoder ticks (rounded) from motor angles (rad) and zero-pose offsets (ticks)."""
+    phi = check_array(phi, "phi", 6)
+    return np.rint(np.asarray(offsets, float) + phi * TICKS_PER_RADIAN).astype(np.int64)
+
+
+def motor_from_ticks(ticks, offsets) -> np.ndarray:
+    """Motor angles (rad) from raw encoder ticks and zero-pose offsets (ticks)."""
+    ticks = check_array(ticks, "ticks", 6)
+    return (ticks - np.asarray(offsets, float)) / TICKS_PER_RADIAN

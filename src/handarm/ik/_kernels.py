@@ -412,7 +412,7 @@ def _snap(x, tol):
 
 
 @nb.njit(**_JIT)
-def _angles(nx, ny, dx, dy, tau, elbow, b1, b2):
+def _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi):
     """(ok, qa, qb, qc) at tau on one elbow; ok is False outside the reach annulus."""
     px, py = nx + tau * dx, ny + tau * dy
     r2 = px * px + py * py
@@ -421,22 +421,22 @@ def _angles(nx, ny, dx, dy, tau, elbow, b1, b2):
         return False, 0.0, 0.0, 0.0
     qb = elbow * math.acos(cb)
     qa = wrap(math.atan2(py, px) - math.atan2(b2 * math.sin(qb), b1 + b2 * math.cos(qb)))
-    qc = wrap(math.atan2(dy, dx) - qa - qb)
+    qc = wrap(psi - qa - qb)  # psi = atan2(dy, dx), constant along L
     return True, qa, qb, qc
 
 
 @nb.njit(**_JIT)
 def canonical_angles(nx, ny, dx, dy, tau, elbow, b1, b2, out):
     """(qa, qb, qc) at tau on one elbow into ``out``; returns False outside the reach annulus."""
-    ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2)
+    ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2, math.atan2(dy, dx))
     out[0], out[1], out[2] = qa, qb, qc
     return ok
 
 
 @nb.njit(**_JIT)
-def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim):
-    """Whether the canonical configuration at tau on ``elbow`` is valid."""
-    ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2)
+def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim, psi):
+    """Whether the canonical configuration at tau on ``elbow`` is valid (psi = angle of d)."""
+    ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi)
     if not ok:
         return False
     if qa < lim[0] or qa > lim[1] or qb < lim[2] or qb > lim[3] or qc < lim[4] or qc > lim[5]:
@@ -465,6 +465,7 @@ def canonical_intervals(
     has no solution there. Returns False if an elbow had more than MAX_IV intervals.
     """
     n = canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws)
+    psi = math.atan2(dy, dx)
     counts[0] = 0
     counts[1] = 0
     complete = True
@@ -489,7 +490,7 @@ def canonical_intervals(
                 if j >= n_allowed or allowed[j, 0] >= t1:
                     open_ = False
                     continue
-            ok = canonical_valid(nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim)
+            ok = canonical_valid(nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi)
             if ok and open_:
                 iv[e, counts[e] - 1, 1] = t1
             elif ok:
@@ -557,11 +558,15 @@ def configuration_at_u(p, e, dx, dy, u, elbow_b, elbow_e, a, out):
 
 @nb.njit(**_JIT)
 def _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out):
-    ok, q1, q2, q3 = _angles(fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[1], a[2])
+    ok, q1, q2, q3 = _angles(
+        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[1], a[2], math.atan2(dy, dx)
+    )
     if not ok:
         return False
     # the tip elbow is +1 when q5 >= 0, i.e. qb_canonical <= 0
-    ok, qa, qb, qc = _angles(fr[3], fr[4], fr[5], fr[6], -u - fr[7], -elbow_e, a[5], a[4])
+    ok, qa, qb, qc = _angles(
+        fr[3], fr[4], fr[5], fr[6], -u - fr[7], -elbow_e, a[5], a[4], math.atan2(fr[6], fr[5])
+    )
     if not ok:
         return False
     out[0], out[1], out[2] = q1, q2, q3
@@ -658,6 +663,52 @@ def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, w
 
 
 @nb.njit(**_JIT)
+def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt):
+    """Both sub-problems valid at u (the classification's own predicate)."""
+    return canonical_valid(
+        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[0], a[1], a[2], a[3], lb, math.atan2(dy, dx)
+    ) and canonical_valid(
+        fr[3],
+        fr[4],
+        fr[5],
+        fr[6],
+        -u - fr[7],
+        -elbow_e,
+        a[6],
+        a[5],
+        a[4],
+        a[3],
+        lt,
+        math.atan2(fr[6], fr[5]),
+    )
+
+
+@nb.njit(**_JIT)
+def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
+    """Configuration at the range's midpoint into q; returns False if none is usable.
+
+    Where a constraint only touches its bound inside a range (a tangency: valid on both
+    sides), the midpoint can sit on it and fail by one rounding step; then the nearest of
+    the points at 1/4, 3/4, 1/8, 7/8, ... of the range that passes is used.
+    """
+    frac = 0.5
+    step = 0.25
+    for attempt in range(13):
+        u = lo + frac * (hi - lo)
+        if _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, q) and _valid_at(
+            fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt
+        ):
+            return True
+        # 0.5, 0.25, 0.75, 0.125, 0.875, ...
+        if attempt % 2 == 0:
+            frac = 0.5 - step
+        else:
+            frac = 0.5 + step
+            step *= 0.5
+    return False
+
+
+@nb.njit(**_JIT)
 def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = work
     cap = out_q.shape[0]
@@ -740,9 +791,8 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
                     lo = max(b_lo, t_lo)
                     hi = min(b_hi, t_hi)
                     if lo < hi:
-                        mid = 0.5 * (lo + hi)
                         elbow_b = 1.0 if eb == 0 else -1.0
-                        if _configuration(fr, dx, dy, mid, elbow_b, elbow_e, a, q):
+                        if _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
                             if total < cap:
                                 for k in range(6):
                                     out_q[total, k] = q[k]
@@ -784,6 +834,14 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
                 psi_used[i : i + 1],
                 work,
             )
+            # pad the unused rows here: the caller's arrays are left uninitialised
+            for r in range(max(counts[i], 0), out_q.shape[1]):
+                for c in range(6):
+                    out_q[i, r, c] = np.nan
+                for c in range(3):
+                    out_br[i, r, c] = 0
+                out_iv[i, r, 0] = np.nan
+                out_iv[i, r, 1] = np.nan
 
 
 @nb.njit(**_JIT)

@@ -378,9 +378,10 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
         raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
     n = len(P)
     counts = np.zeros(n, np.int64)
-    sols = np.full((n, MAX_SOLUTIONS, 6), np.nan)
-    br = np.zeros((n, MAX_SOLUTIONS, 3), np.int8)
-    iv = np.full((n, MAX_SOLUTIONS, 2), np.nan)
+    # the kernel fills every row (solutions, then NaN padding): no second pass over memory
+    sols = np.empty((n, MAX_SOLUTIONS, 6))
+    br = np.empty((n, MAX_SOLUTIONS, 3), np.int8)
+    iv = np.empty((n, MAX_SOLUTIONS, 2))
     h = np.hypot(E[:, 0], E[:, 1])
     vertical = h < K.VERTICAL_EPS
     psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))

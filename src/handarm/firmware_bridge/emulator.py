@@ -1,0 +1,306 @@
+"""A software bus of MX-64T servos (Protocol 1.0 firmware) on a pseudo-terminal.
+
+dynamixel_sdk opens the pty's path exactly as it would open /dev/ttyUSB0, so the bridge is
+tested (and can be tried without hardware: ``handarm bridge emulate``) through the real SDK.
+Each servo keeps a stateful control table; instruction packets are parsed with their
+checksums; status packets carry error bits. Goal Position moves a servo at once.
+
+Faults, for tests: a silent servo (no reply), a servo whose replies have a bad checksum, a
+servo that reports another model number (311 is the MX(2.0) firmware), a late reply.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import threading
+import tty
+from collections.abc import Iterable, Mapping
+
+from handarm.firmware_bridge.mx64 import ADDR, MODEL_NUMBER
+
+__all__ = ["EmulatedServo", "EmulatedBus"]
+
+PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC_WRITE, BULK_READ = (
+    0x01,
+    0x02,
+    0x03,
+    0x04,
+    0x05,
+    0x06,
+    0x83,
+    0x92,
+)
+BROADCAST = 0xFE
+ERR_ANGLE, ERR_RANGE, ERR_CHECKSUM, ERR_INSTRUCTION = 0x02, 0x08, 0x10, 0x40
+_TABLE_SIZE = 74
+_READ_ONLY = set(range(0, 3)) | set(range(36, 47)) | {50, 51}
+
+
+def _checksum(body: Iterable[int]) -> int:
+    return (~sum(body)) & 0xFF
+
+
+class EmulatedServo:
+    """One MX-64T: a control table with the Protocol 1.0 firmware's defaults."""
+
+    def __init__(self, servo_id: int, model: int = MODEL_NUMBER, position: int = 2048):
+        t = bytearray(_TABLE_SIZE)
+        self.table = t
+        self._put("model_number", model)
+        defaults = {
+            "firmware_version": 36,
+            "id": servo_id,
+            "baud_rate": 1,
+            "return_delay_time": 250,
+            "cw_angle_limit": 0,
+            "ccw_angle_limit": 4095,
+            "temperature_limit": 80,
+            "min_voltage_limit": 60,
+            "max_voltage_limit": 240,
+            "max_torque": 1023,
+            "status_return_level": 2,
+            "alarm_led": 36,
+            "shutdown": 36,
+            "resolution_divider": 1,
+            "goal_position": position,
+            "torque_limit": 1023,
+            "present_position": position,
+            "present_voltage": 120,
+            "present_temperature": 35,
+        }
+        for name, value in defaults.items():
+            self._put(name, value)
+        t[28] = 32  # P gain
+        self.pending: tuple[int, bytes] | None = None
+
+    @property
+    def id(self) -> int:
+        """The servo's ID (address 3)."""
+        return self.table[3]
+
+    def get(self, name: str) -> int:
+        """Unsigned value of a named register."""
+        addr, size = ADDR[name]
+        return int.from_bytes(self.table[addr : addr + size], "little")
+
+    def _put(self, name: str, value: int) -> None:
+        addr, size = ADDR[name]
+        self.table[addr : addr + size] = (value & ((1 << (8 * size)) - 1)).to_bytes(size, "little")
+
+    @property
+    def multi_turn(self) -> bool:
+        """CW = CCW = 4095 selects multi-turn mode."""
+        return self.get("cw_angle_limit") == 4095 and self.get("ccw_angle_limit") == 4095
+
+    def read(self, addr: int, count: int) -> tuple[int, bytes]:
+        """(error, data) of a READ."""
+        if addr + count > _TABLE_SIZE:
+            return ERR_RANGE, b""
+        return 0, bytes(self.table[addr : addr + count])
+
+    def write(self, addr: int, data: bytes) -> int:
+        """Apply a WRITE; returns the error byte."""
+        end = addr + len(data)
+        if end > _TABLE_SIZE or any(a in _READ_ONLY for a in range(addr, end)):
+            return ERR_RANGE
+        goal_addr = ADDR["goal_position"][0]
+        if addr <= goal_addr < end - 1:
+            raw = int.from_bytes(data[goal_addr - addr : goal_addr - addr + 2], "little")
+            if self.multi_turn:
+                signed = raw - 0x10000 if raw > 0x7FFF else raw
+                if abs(signed) > 28672:
+                    return ERR_ANGLE
+            elif not self.get("cw_angle_limit") <= raw <= self.get("ccw_angle_limit"):
+                return ERR_ANGLE
+        self.table[addr:end] = data
+        if addr <= goal_addr < end - 1:
+            # the emulated servo reaches its goal at once
+            self.table[36:38] = self.table[30:32]
+        return 0
+
+
+class EmulatedBus:
+    """Servos on one pseudo-terminal; use as a context manager, pass ``port`` to the SDK.
+
+    Parameters
+    ----------
+    ids : iterable of int
+        Servo IDs on the bus.
+    models : mapping, optional
+        Model number per ID (default 310).
+    silent : iterable of int
+        IDs that never answer.
+    bad_checksum : iterable of int
+        IDs whose status packets carry a wrong checksum.
+    late : mapping, optional
+        Seconds of delay before the given IDs answer.
+    positions : mapping, optional
+        Initial Present Position per ID (ticks).
+    """
+
+    def __init__(
+        self,
+        ids: Iterable[int] = (1, 2, 3, 4, 5, 6),
+        *,
+        models: Mapping[int, int] | None = None,
+        silent: Iterable[int] = (),
+        bad_checksum: Iterable[int] = (),
+        late: Mapping[int, float] | None = None,
+        positions: Mapping[int, int] | None = None,
+    ):
+        models = dict(models or {})
+        positions = dict(positions or {})
+        self.servos = {
+            i: EmulatedServo(i, models.get(i, MODEL_NUMBER), positions.get(i, 2048)) for i in ids
+        }
+        self.silent = set(silent)
+        self.bad_checksum = set(bad_checksum)
+        self.late = dict(late or {})
+        self.log: list[tuple[int, int, bytes]] = []  # (id, instruction, params) received
+        self._master = self._slave = -1
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self.port = ""
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    def start(self) -> EmulatedBus:
+        """Open the pty and answer packets in a background thread."""
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._master)
+        tty.setraw(self._slave)
+        self.port = os.ttyname(self._slave)
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._serve, name="mx64-emulator", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop answering and close the pty."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+        for fd in (self._master, self._slave):
+            if fd >= 0:
+                os.close(fd)
+        self._master = self._slave = -1
+
+    def __enter__(self) -> EmulatedBus:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    # -- packets -----------------------------------------------------------------------------
+
+    def _serve(self) -> None:
+        buf = bytearray()
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self._master], [], [], 0.02)
+            if not ready:
+                continue
+            try:
+                chunk = os.read(self._master, 4096)
+            except OSError:
+                return
+            buf += chunk
+            while True:
+                start = buf.find(b"\xff\xff")
+                if start < 0:
+                    buf.clear()
+                    break
+                del buf[:start]
+                if len(buf) < 4:
+                    break
+                total = 4 + buf[3]
+                if len(buf) < total:
+                    break
+                packet = bytes(buf[:total])
+                del buf[:total]
+                self._handle(packet)
+
+    def _reply(self, servo: EmulatedServo, error: int, params: bytes = b"") -> None:
+        sid = servo.id
+        if sid in self.silent:
+            return
+        body = bytes([sid, len(params) + 2, error]) + params
+        chk = _checksum(body)
+        if sid in self.bad_checksum:
+            chk ^= 0x5A
+        packet = b"\xff\xff" + body + bytes([chk])
+        if sid in self.late:
+            # answer after the host has given up, without holding up the rest of the bus
+            threading.Timer(self.late[sid], self._write, args=(packet,)).start()
+        else:
+            self._write(packet)
+
+    def _write(self, packet: bytes) -> None:
+        if self._master >= 0 and not self._stop.is_set():
+            os.write(self._master, packet)
+
+    def _handle(self, packet: bytes) -> None:
+        sid, length, inst = packet[2], packet[3], packet[4]
+        params = packet[5 : 3 + length]
+        self.log.append((sid, inst, params))
+        targets = (
+            list(self.servos.values())
+            if sid == BROADCAST
+            else ([self.servos[sid]] if sid in self.servos else [])
+        )
+        if _checksum(packet[2:-1]) != packet[-1]:
+            for servo in targets if sid != BROADCAST else []:
+                self._reply(servo, ERR_CHECKSUM)
+            return
+        if inst == SYNC_WRITE:
+            self._sync_write(params)
+            return
+        if inst == BULK_READ:
+            self._bulk_read(params)
+            return
+        for servo in targets:
+            error, data = self._execute(servo, inst, params)
+            level = servo.get("status_return_level")
+            answers = inst == PING or (inst == READ and level >= 1) or level >= 2
+            if sid != BROADCAST and answers:
+                self._reply(servo, error, data)
+
+    def _execute(self, servo: EmulatedServo, inst: int, params: bytes) -> tuple[int, bytes]:
+        if inst == PING:
+            return 0, b""
+        if inst == READ and len(params) == 2:
+            return servo.read(params[0], params[1])
+        if inst == WRITE and len(params) >= 2:
+            old_id = servo.id
+            error = servo.write(params[0], params[1:])
+            if servo.id != old_id:
+                self.servos[servo.id] = self.servos.pop(old_id)
+            return error, b""
+        if inst == REG_WRITE and len(params) >= 2:
+            servo.pending = (params[0], params[1:])
+            return 0, b""
+        if inst == ACTION:
+            if servo.pending is None:
+                return ERR_INSTRUCTION, b""
+            addr, data = servo.pending
+            servo.pending = None
+            return servo.write(addr, data), b""
+        if inst == RESET:
+            fresh = EmulatedServo(servo.id, servo.get("model_number"))
+            servo.table[:] = fresh.table
+            return 0, b""
+        return ERR_INSTRUCTION, b""
+
+    def _sync_write(self, params: bytes) -> None:
+        addr, size = params[0], params[1]
+        for k in range(2, len(params) - size, size + 1):
+            sid = params[k]
+            if sid in self.servos:
+                self.servos[sid].write(addr, params[k + 1 : k + 1 + size])
+
+    def _bulk_read(self, params: bytes) -> None:
+        for k in range(1, len(params) - 2, 3):
+            size, sid, addr = params[k], params[k + 1], params[k + 2]
+            if sid in self.servos:
+                error, data = self.servos[sid].read(addr, size)
+                self._reply(self.servos[sid], error, data)

@@ -1,0 +1,104 @@
+"""Dynamixel MX-64T/AT, Protocol 1.0 firmware (model number 310): control table and units.
+
+Facts from ``shared/reference/mx64.md`` (ROBOTIS e-manual, DynamixelSDK). Positions are
+4096 ticks per turn; joint mode spans one turn (0..4095, bounded by the CW/CCW angle
+limits), multi-turn mode (CW = CCW = 4095) spans -28672..28672, two's complement on the bus.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = [
+    "MODEL_NUMBER",
+    "MODEL_NUMBER_MX2",
+    "TICKS_PER_REV",
+    "MULTI_TURN_LIMIT",
+    "ADDR",
+    "EEPROM_END",
+    "BAUD_VALUES",
+    "ticks_per_radian",
+    "to_unsigned16",
+    "from_unsigned16",
+    "baud_register",
+]
+
+MODEL_NUMBER = 310  # MX-64 with Protocol 1.0 firmware
+MODEL_NUMBER_MX2 = 311  # MX-64 with MX(2.0) firmware: a different control table
+TICKS_PER_REV = 4096
+MULTI_TURN_LIMIT = 28672  # |Goal Position| in multi-turn mode (7 turns)
+JOINT_MODE_MAX = 4095
+
+#: Control-table addresses (Protocol 1.0 firmware), with their sizes in bytes.
+ADDR = {
+    "model_number": (0, 2),
+    "firmware_version": (2, 1),
+    "id": (3, 1),
+    "baud_rate": (4, 1),
+    "return_delay_time": (5, 1),
+    "cw_angle_limit": (6, 2),
+    "ccw_angle_limit": (8, 2),
+    "temperature_limit": (11, 1),
+    "min_voltage_limit": (12, 1),
+    "max_voltage_limit": (13, 1),
+    "max_torque": (14, 2),
+    "status_return_level": (16, 1),
+    "alarm_led": (17, 1),
+    "shutdown": (18, 1),
+    "multi_turn_offset": (20, 2),
+    "resolution_divider": (22, 1),
+    "torque_enable": (24, 1),
+    "led": (25, 1),
+    "goal_position": (30, 2),
+    "moving_speed": (32, 2),
+    "torque_limit": (34, 2),
+    "present_position": (36, 2),
+    "present_speed": (38, 2),
+    "present_load": (40, 2),
+    "present_voltage": (42, 1),
+    "present_temperature": (43, 1),
+    "moving": (46, 1),
+    "lock": (47, 1),
+}
+EEPROM_END = 24  # addresses below this persist across power cycles
+
+#: Baud Rate register values for the rates the SDK's PortHandler accepts.
+BAUD_VALUES = {
+    1_000_000: 1,
+    500_000: 3,
+    400_000: 4,
+    250_000: 7,
+    200_000: 9,
+    115_200: 16,
+    57_600: 34,
+    19_200: 103,
+    9_600: 207,
+    2_250_000: 250,
+    2_500_000: 251,
+    3_000_000: 252,
+}
+
+
+def ticks_per_radian() -> float:
+    """Encoder ticks per radian of motor rotation."""
+    return TICKS_PER_REV / (2.0 * math.pi)
+
+
+def to_unsigned16(value: int) -> int:
+    """Signed tick count to the 16-bit two's complement the bus carries."""
+    return value & 0xFFFF
+
+
+def from_unsigned16(value: int) -> int:
+    """16-bit two's complement from the bus to a signed tick count."""
+    return value - 0x10000 if value > 0x7FFF else value
+
+
+def baud_register(baud: int) -> int:
+    """Baud Rate register value for a bit rate; ValueError if the servo cannot do it."""
+    if baud not in BAUD_VALUES:
+        raise ValueError(
+            f"baud_rate: {baud} is not a rate the MX-64 and the SDK share; "
+            f"choose one of {sorted(BAUD_VALUES)}"
+        )
+    return BAUD_VALUES[baud]

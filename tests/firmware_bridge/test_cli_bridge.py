@@ -1,0 +1,90 @@
+import json
+
+import pytest
+
+from handarm.cli import main
+from handarm.firmware_bridge.emulator import WRITE, EmulatedBus
+
+START = {1: 2000, 2: 100, 3: 3000, 4: 2048, 5: 4000, 6: 10}
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_export_and_size(tmp_path, capsys):
+    code, out, err = run(capsys, "bridge", "export", "--out", tmp_path / "ctl")
+    assert code == 0, err
+    assert json.loads((tmp_path / "ctl" / "controller.json").read_text())["servos"][0]["id"] == 1
+    code, out, err = run(capsys, "bridge", "size", "--no-carve", "--json")
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["payload_kg"] > 0 and len(report["sized_joint_pulley_radii_mm"]) == 6
+
+
+def test_live_bus_commands(tmp_path, capsys):
+    with EmulatedBus(positions=START) as emu:
+        cal = tmp_path / "cal.json"
+        code, out, err = run(capsys, "bridge", "calibrate", "--port", emu.port, "--out", cal)
+        assert code == 0, err
+        code, out, err = run(capsys, "bridge", "apply", "--port", emu.port, "--calibration", cal)
+        assert code == 0, err and "verified" in out
+        code, out, err = run(
+            capsys,
+            "bridge",
+            "goto",
+            "10",
+            "-20",
+            "30",
+            "40",
+            "-50",
+            "60",
+            "--port",
+            emu.port,
+            "--calibration",
+            cal,
+        )
+        assert code == 0, err
+        code, out, err = run(capsys, "bridge", "read", "--port", emu.port, "--calibration", cal)
+        assert code == 0, err
+        angles = [float(v) for v in out.split()]
+        assert angles == pytest.approx([10, -20, 30, 40, -50, 60], abs=0.1)
+        before = len(emu.log)
+        code, out, err = run(
+            capsys,
+            "bridge",
+            "goto",
+            "170",
+            "0",
+            "0",
+            "0",
+            "0",
+            "0",
+            "--port",
+            emu.port,
+            "--calibration",
+            cal,
+        )
+        assert code == 2 and "outside joint 1's limits" in err
+        assert len(emu.log) == before  # refused before touching the bus
+
+
+def test_bus_faults_are_one_line(tmp_path, capsys):
+    with EmulatedBus(silent=[4]) as emu:
+        code, out, err = run(capsys, "bridge", "apply", "--port", emu.port)
+        assert code == 3
+        assert "handarm bridge apply: error: nothing was written: joint 4" in err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert [e for e in emu.log if e[1] == WRITE] == []
+    code, out, err = run(
+        capsys,
+        "bridge",
+        "read",
+        "--port",
+        tmp_path / "nope",
+        "--calibration",
+        tmp_path / "none.json",
+    )
+    assert code == 2 and "calibration file not found" in err
