@@ -78,7 +78,7 @@ def test_user_mistakes_are_one_line(tmp_path, capsys, content, message, command)
 def test_every_subcommand_has_help(capsys):
     parser = make_parser()
     commands = parser._subparsers._group_actions[0].choices
-    assert {"build", "urdf", "ik", "carve", "bridge"} <= set(commands)
+    assert {"build", "urdf", "ik", "carve", "bridge", "workspace", "study"} <= set(commands)
     bridge = commands["bridge"]._subparsers._group_actions[0].choices
     assert {"export", "size", "apply", "calibrate", "read", "goto", "emulate"} <= set(bridge)
     argvs = [[name, "--help"] for name in commands] + [["bridge", b, "--help"] for b in bridge]

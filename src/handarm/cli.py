@@ -63,7 +63,40 @@ def build(design: ArmDesign, out: Path, *, quiet: bool = False) -> list[Path]:
     written += paths
     config = controller_config(design, achieved_limits=[j.achieved for j in result.joints])
     written += write_controller_files(config, out / "controller")
+    written += workspace_to(design, out / "workspace", quiet=quiet)
     return written
+
+
+def workspace_to(
+    design: ArmDesign,
+    out: Path,
+    *,
+    voxel: float = 0.01,
+    directions: int = 100,
+    threshold: float = 0.5,
+    sensitivity: bool = True,
+    quiet: bool = False,
+):
+    """Map the workspace and write its outputs into ``out``, with a progress bar."""
+    from tqdm import tqdm
+
+    from handarm.workspace.report import write_workspace_outputs
+
+    with tqdm(desc="workspace", unit="query", unit_scale=True, disable=quiet, leave=False) as bar:
+
+        def tick(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        return write_workspace_outputs(
+            design,
+            out,
+            voxel=voxel,
+            directions=directions,
+            threshold=threshold,
+            sensitivity=sensitivity,
+            progress=tick,
+        )
 
 
 def write_controller_files(config: dict, out: Path) -> list[Path]:
@@ -307,6 +340,62 @@ def cmd_bridge_emulate(args: argparse.Namespace) -> int:
             time.sleep(1.0)
 
 
+def cmd_workspace(args: argparse.Namespace) -> int:
+    """Reachability map, workspace scores, the paper's claims checked, pictures."""
+    design = _load_design(args.design)
+    paths = workspace_to(
+        design,
+        Path(args.out),
+        voxel=args.voxel,
+        directions=args.directions,
+        threshold=args.threshold,
+        sensitivity=not args.no_sensitivity,
+        quiet=args.quiet,
+    )
+    report = json.loads(next(p for p in paths if p.name == "workspace.json").read_text())
+    sc = report["scores"]
+    print(
+        f"reachable volume {sc['reachable_volume_m3'] * 1e3:.2f} L, dexterous volume "
+        f"(index >= {sc['threshold']:g}) {sc['dexterous_volume_m3'] * 1e3:.2f} L, "
+        f"mean index {sc['mean_index']:.3f}"
+    )
+    print(f"{report['ik_queries']} IK queries at {report['ik_queries_per_second']:,.0f}/s")
+    if "sensitivity" in report:
+        print(
+            "most sensitive joints (reachable, dexterous): "
+            f"{report['sensitivity']['most_sensitive_reachable']}, "
+            f"{report['sensitivity']['most_sensitive_dexterous']}"
+        )
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_study(args: argparse.Namespace) -> int:
+    """Trade study: carve and score every design of STUDY.toml (resumable, on Dask)."""
+    from tqdm import tqdm
+
+    from handarm.workspace.study import load_study, run_study
+
+    study = load_study(args.study)
+    with tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar:
+
+        def tick(done: int, total: int) -> None:
+            bar.update(done - bar.n)
+
+        result = run_study(
+            study, Path(args.out), scheduler=args.scheduler, workers=args.workers, progress=tick
+        )
+    rows = result["rows"]
+    print(f"{result['computed']} designs computed, {result['reused']} found on disk")
+    best = max(rows, key=lambda r: r["score"])
+    print(
+        f"best: {best['name']} (score {best['score']:.4f}); Pareto front: "
+        + ", ".join(r["name"] for r in rows if r["pareto"])
+    )
+    print(f"wrote {args.out}")
+    return 0
+
+
 def cmd_urdf(args: argparse.Namespace) -> int:
     """Write the design as URDF."""
     design = _load_design(args.design)
@@ -476,6 +565,34 @@ def make_parser() -> argparse.ArgumentParser:
     )
     _add_design_arg(p)
     p.set_defaults(func=cmd_bridge_emulate)
+
+    p = sub.add_parser(
+        "workspace", help="reachability map and workspace scores", description=cmd_workspace.__doc__
+    )
+    _add_design_arg(p)
+    p.add_argument("--out", default="build/workspace", help="output folder")
+    p.add_argument("--voxel", type=float, default=0.01, metavar="M", help="voxel edge, m (0.01)")
+    p.add_argument("--directions", type=int, default=100, help="approach directions (100)")
+    p.add_argument(
+        "--threshold", type=float, default=0.5, help="reachability index counted as dexterous (0.5)"
+    )
+    p.add_argument("--no-sensitivity", action="store_true", help="skip per-joint sensitivity")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_workspace)
+
+    p = sub.add_parser(
+        "study", help="joint-limit trade study (Dask)", description=cmd_study.__doc__
+    )
+    p.add_argument("study", metavar="STUDY.toml", help="study file")
+    p.add_argument("--out", default="build/study", help="output folder (resumable)")
+    p.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:8786",
+        help="a Dask scheduler to run on (default: local processes)",
+    )
+    p.add_argument("--workers", type=int, help="local worker processes (default 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_study)
 
     p = sub.add_parser("urdf", help="write the design as URDF", description=cmd_urdf.__doc__)
     _add_design_arg(p)

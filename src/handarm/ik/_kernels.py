@@ -35,6 +35,9 @@ TWO_PI = 2.0 * math.pi
 MAX_CAND = 96  # candidate events per canonical problem (at most 74 are generated)
 MAX_IV = 40  # intervals per canonical problem and elbow
 VERTICAL_EPS = 1e-12  # |horizontal part of e| below this: the direction is vertical
+# Ranges closer than this (m) are one range: a constraint that only touches its bound inside a
+# range leaves a hole of a single point, which rounding turns into ~1e-9 m or nothing.
+MERGE_GAP = 2e-9
 
 _JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 
@@ -491,8 +494,10 @@ def canonical_intervals(
                     open_ = False
                     continue
             ok = canonical_valid(nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi)
-            if ok and open_:
+            if ok and (open_ or (counts[e] > 0 and t0 - iv[e, counts[e] - 1, 1] <= MERGE_GAP)):
+                # contiguous, or across a hole narrower than MERGE_GAP (a tangency)
                 iv[e, counts[e] - 1, 1] = t1
+                open_ = True
             elif ok:
                 if counts[e] < MAX_IV:
                     iv[e, counts[e], 0] = t0
@@ -851,3 +856,22 @@ def configurations_along_u(p, e, dx, dy, us, elbow_b, elbow_e, a, out, ok):
     _frames(p, e, dx, dy, a, fr)
     for i in range(us.shape[0]):
         ok[i] = _configuration(fr, dx, dy, us[i], elbow_b, elbow_e, a, out[i])
+
+
+@nb.njit(parallel=True, **_JIT)
+def count_many(P, E, psi_vertical, a, lower, upper, counts):
+    """Number of solution ranges of each target, without storing them (workspace maps)."""
+    n = P.shape[0]
+    block = 256
+    n_blocks = (n + block - 1) // block
+    for b in nb.prange(n_blocks):
+        work = _workspace(lower, upper)
+        q = np.empty((_COUNT_CAP, 6))
+        br = np.empty((_COUNT_CAP, 3), np.int8)
+        iv = np.empty((_COUNT_CAP, 2))
+        used = np.empty(1)
+        for i in range(b * block, min(n, (b + 1) * block)):
+            counts[i] = _solve_any_azimuth(P[i], E[i], psi_vertical[i], a, q, br, iv, used, work)
+
+
+_COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardless

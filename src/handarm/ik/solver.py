@@ -409,6 +409,35 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     return BatchResult(counts, sols, br, iv, truncated, vertical, used)
 
 
+def count_solutions(design: ArmDesign, P, E, *, chunk: int = 1 << 20) -> np.ndarray:
+    """Number of 5-DoF solution ranges of each of N targets, shape (N,).
+
+    The same answer as ``solve_batch(...).counts`` without storing any solution, so that
+    millions of targets (workspace maps) run in little memory.
+    """
+    check_design(design)
+    P, E = _check_target(P, E, "P", "E")
+    if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
+        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    n = len(P)
+    counts = np.zeros(n, np.int64)
+    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
+    for s in range(0, n, chunk):
+        sl = slice(s, min(n, s + chunk))
+        K.count_many(
+            np.ascontiguousarray(P[sl]),
+            np.ascontiguousarray(E[sl]),
+            psi[sl],
+            design.lengths,
+            design.lower,
+            design.upper,
+            counts[sl],
+        )
+    if np.any(counts < 0):
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    return counts
+
+
 def configurations_along(
     design: ArmDesign, p, e, branch, u, *, azimuth=None
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,209 @@
+"""Reachability maps: positions on a voxel grid times approach directions, through the IK.
+
+For each voxel centre p and each direction e of a set, the 5-DoF IK counts solution ranges.
+Per voxel: the reachability index (fraction of directions with a solution), the mean number
+of solution ranges over the directions, and whether the position is reachable with at least
+one of the directions.
+
+Symmetries: negating q1..q3 mirrors the arm in y (tool point and direction), negating
+q4..q6 mirrors it in z; the collision model is mirror-invariant. When the limits of joints
+1-3 (resp. 4-6) are symmetric, only y > 0 (resp. z > 0) is computed and mirrored. The grid
+and the direction set are themselves mirror-symmetric, so the mirrored map equals the full
+computation (tested).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from handarm._io import write_bytes_atomic
+from handarm.design import ArmDesign
+from handarm.ik import count_solutions
+
+__all__ = ["ReachabilityMap", "direction_set", "reachability_map", "symmetries"]
+
+
+def direction_set(n: int = 100) -> np.ndarray:
+    """About ``n`` unit directions, even over the sphere and symmetric under y -> -y, z -> -z.
+
+    m bands of equal area (equal steps in x, by Archimedes' theorem), each with an even number
+    k of directions equally spaced around x, every other band turned by half a step: an even
+    k maps each band onto itself under both mirrors, and no direction has a near-twin across
+    a mirror plane. n = 100 gives 10 bands of 10.
+    """
+    if n < 4:
+        raise ValueError(f"directions: expected at least 4, got {n}")
+    m = max(2, round(math.sqrt(n)))
+    k = max(2, 2 * round(n / (2 * m)))
+    x = -1.0 + (2.0 * np.arange(m) + 1.0) / m
+    r = np.sqrt(1.0 - x * x)
+    out = []
+    for i in range(m):
+        # azimuths (j + o) / k of a turn, o = 0 or 1/2; the band is mirror-symmetric, so it
+        # is built from its first quadrant by sign flips: bit-exact mirror images
+        twice_o = i % 2
+        points = set()
+        for j in range(k):
+            quarter = 4 * (2 * j + twice_o)  # 8 (j + o)
+            if quarter > 2 * k:  # beyond a quarter turn
+                continue
+            if quarter == 2 * k:
+                c, s_ = 0.0, 1.0
+            elif quarter == 0:
+                c, s_ = 1.0, 0.0
+            else:
+                t = 2.0 * math.pi * (j + 0.5 * twice_o) / k
+                c, s_ = math.cos(t), math.sin(t)
+            for sy in (1.0, -1.0):
+                for sz in (1.0, -1.0):
+                    points.add((float(x[i]), sy * r[i] * c + 0.0, sz * r[i] * s_ + 0.0))
+        out.append(np.array(sorted(points)))
+    return np.concatenate(out)
+
+
+def symmetries(design: ArmDesign) -> tuple[bool, bool]:
+    """(mirror in y, mirror in z): whether joints 1-3 / 4-6 have symmetric limits."""
+    sym = np.isclose(design.lower, -design.upper, rtol=0, atol=1e-15)
+    return bool(sym[:3].all()), bool(sym[3:].all())
+
+
+@dataclasses.dataclass(frozen=True)
+class ReachabilityMap:
+    """A reachability map on a cubic grid of voxels (SI units).
+
+    ``index``, ``mean_solutions`` and ``reachable`` have shape (n, n, n) along x, y, z; voxel
+    (i, j, k) is centred at ``centres[i], centres[j], centres[k]``. Voxels outside the reach
+    sphere are 0 / False.
+    """
+
+    voxel: float
+    centres: np.ndarray
+    index: np.ndarray
+    mean_solutions: np.ndarray
+    reachable: np.ndarray
+    directions: np.ndarray
+    reach: float
+    mirrored: tuple[bool, bool]
+    queries: int
+    seconds: float
+    handle: float = 0.0  # length of l0 (m), for pictures
+
+    def save_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Compressed .npz (written atomically)."""
+        buf = io.BytesIO()
+        np.savez_compressed(
+            buf,
+            voxel=self.voxel,
+            centres=self.centres,
+            index=self.index,
+            mean_solutions=self.mean_solutions,
+            reachable=self.reachable,
+            directions=self.directions,
+            reach=self.reach,
+            mirrored=np.array(self.mirrored),
+            handle=self.handle,
+        )
+        path = Path(path)
+        write_bytes_atomic(path, buf.getvalue())
+        return path
+
+
+def reachability_map(
+    design: ArmDesign,
+    voxel: float = 0.01,
+    directions: int | np.ndarray = 100,
+    *,
+    use_symmetry: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    chunk_queries: int = 400_000,
+) -> ReachabilityMap:
+    """Reachability map of the design.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    voxel : float
+        Voxel edge (m).
+    directions : int or array-like, shape (m, 3)
+        Number of approach directions (``direction_set``), or the directions themselves
+        (symmetry is then used only if the set is mirror-symmetric).
+    use_symmetry : bool
+        Mirror the map where the limits allow it.
+    progress : callable, optional
+        ``progress(done, total)`` in IK queries, after each chunk.
+    chunk_queries : int
+        IK queries per batch (bounds memory).
+    """
+    import time
+
+    if not voxel > 0:
+        raise ValueError(f"voxel: must be > 0, got {voxel}")
+    dirs = direction_set(directions) if np.isscalar(directions) else np.asarray(directions, float)
+    dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    reach = float(np.sum(design.lengths[1:]))
+    half = math.ceil(reach / voxel)
+    centres = (np.arange(2 * half) - half + 0.5) * voxel
+    sym_y, sym_z = symmetries(design) if use_symmetry else (False, False)
+    sym_y = sym_y and _mirror_symmetric(dirs, 1)
+    sym_z = sym_z and _mirror_symmetric(dirs, 2)
+    gx, gy, gz = np.meshgrid(centres, centres, centres, indexing="ij")
+    inside = gx**2 + gy**2 + gz**2 <= (reach + voxel * math.sqrt(3) / 2) ** 2
+    todo = inside.copy()
+    if sym_y:
+        todo &= gy > 0
+    if sym_z:
+        todo &= gz > 0
+    idx = np.flatnonzero(todo)
+    pts = np.stack([gx.flat[idx], gy.flat[idx], gz.flat[idx]], axis=1)
+    m = len(dirs)
+    counts = np.empty((len(idx), m), np.int64)
+    per_chunk = max(1, chunk_queries // m)
+    total = len(idx) * m
+    t0 = time.perf_counter()
+    for s in range(0, len(idx), per_chunk):
+        block = pts[s : s + per_chunk]
+        P = np.repeat(block, m, axis=0)
+        E = np.tile(dirs, (len(block), 1))
+        counts[s : s + len(block)] = count_solutions(design, P, E).reshape(len(block), m)
+        if progress is not None:
+            progress(min(total, (s + len(block)) * m), total)
+    seconds = time.perf_counter() - t0
+    index = np.zeros(inside.shape, np.float32)
+    mean = np.zeros(inside.shape, np.float32)
+    index.flat[idx] = (counts > 0).mean(axis=1)
+    mean.flat[idx] = counts.mean(axis=1)
+    # mirror: voxel j <-> 2 half - 1 - j along y and z
+    if sym_y:
+        index = np.maximum(index, index[:, ::-1, :])
+        mean = np.maximum(mean, mean[:, ::-1, :])
+    if sym_z:
+        index = np.maximum(index, index[:, :, ::-1])
+        mean = np.maximum(mean, mean[:, :, ::-1])
+    return ReachabilityMap(
+        voxel,
+        centres,
+        index,
+        mean,
+        index > 0,
+        dirs,
+        reach,
+        (sym_y, sym_z),
+        total,
+        seconds,
+        float(design.lengths[0]),
+    )
+
+
+def _mirror_symmetric(dirs: np.ndarray, axis: int) -> bool:
+    flipped = dirs.copy()
+    flipped[:, axis] *= -1
+    a = np.round(dirs, 12)
+    b = np.round(flipped, 12)
+    return {tuple(v) for v in a} == {tuple(v) for v in b}

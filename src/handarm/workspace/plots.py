@@ -1,0 +1,96 @@
+"""Pictures of workspace maps and trade studies (matplotlib PNG, real axes in mm)."""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from handarm._io import write_bytes_atomic  # noqa: E402
+from handarm.workspace.maps import ReachabilityMap  # noqa: E402
+
+__all__ = ["slice_picture", "pareto_picture", "sensitivity_picture"]
+
+
+def _save(fig, path) -> Path:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    path = Path(path)
+    write_bytes_atomic(path, buf.getvalue())
+    return path
+
+
+def slice_picture(
+    wmap: ReachabilityMap, plane: str, path: str | os.PathLike[str], title: str = ""
+) -> Path:
+    """Heat map of the reachability index in the plane z = 0 ("xy") or y = 0 ("xz")."""
+    c = wmap.centres * 1000.0
+    mid = len(c) // 2  # the voxels just above the plane (the grid has no voxel on it)
+    if plane == "xy":
+        data, ylabel = wmap.index[:, :, mid].T, "y (mm)"
+    elif plane == "xz":
+        data, ylabel = wmap.index[:, mid, :].T, "z (mm)"
+    else:
+        raise ValueError(f"plane: expected 'xy' or 'xz', got {plane!r}")
+    h = wmap.voxel * 500.0
+    fig, ax = plt.subplots(figsize=(6, 5))
+    masked = np.ma.masked_where(data <= 0, data)
+    im = ax.imshow(
+        masked,
+        origin="lower",
+        extent=(c[0] - h, c[-1] + h, c[0] - h, c[-1] + h),
+        cmap="viridis",
+        vmin=0,
+        vmax=1,
+    )
+    ax.plot([-wmap.handle * 1000, 0], [0, 0], color="0.2", lw=3, label="handle (l0)")
+    fig.colorbar(im, ax=ax, label="reachability index (fraction of directions)")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel(ylabel)
+    ax.set_xlim(c[0] - h, c[-1] + h)
+    ax.set_ylim(c[0] - h, c[-1] + h)
+    ax.set_title(title or f"reachability, {plane} slice, {wmap.voxel * 1000:g} mm voxels")
+    ax.legend(loc="lower left", fontsize=8)
+    return _save(fig, path)
+
+
+def pareto_picture(rows, path, x="mass_kg", y="workspace_score") -> Path:
+    """Every design as a point (workspace score against link mass), the Pareto front joined."""
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    xs = np.array([r[x] for r in rows]) * (1000.0 if x == "mass_kg" else 1.0)
+    ys = np.array([r[y] for r in rows])
+    front = np.array([r["pareto"] for r in rows], dtype=bool)
+    ax.scatter(xs[~front], ys[~front], color="0.6", label="dominated")
+    order = np.argsort(xs[front])
+    ax.plot(xs[front][order], ys[front][order], "o-", color="tab:red", label="Pareto front")
+    for r, px, py in zip(rows, xs, ys, strict=True):
+        if r["pareto"]:
+            ax.annotate(r["name"], (px, py), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel("carved link mass (g)" if x == "mass_kg" else x)
+    ax.set_ylabel("workspace score (reachable + dexterous volume, normalised)")
+    ax.legend()
+    ax.set_title("trade study: workspace against mass")
+    return _save(fig, path)
+
+
+def sensitivity_picture(sensitivity: dict, path) -> Path:
+    """Bar chart: volume lost per degree of each joint's limit."""
+    rows = sensitivity["joints"]
+    joints = [r["joint"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    w = 0.38
+    x = np.arange(len(joints))
+    ax.bar(x - w / 2, [r["reachable_m3_per_deg"] * 1e6 for r in rows], w, label="reachable")
+    ax.bar(x + w / 2, [r["dexterous_m3_per_deg"] * 1e6 for r in rows], w, label="dexterous")
+    ax.set_xticks(x, [f"joint {j}" for j in joints])
+    ax.set_ylabel("volume lost per degree of limit (cm³/deg)")
+    ax.set_title(f"per-joint sensitivity (limits reduced by {sensitivity['delta_deg']:g} deg)")
+    ax.legend()
+    return _save(fig, path)

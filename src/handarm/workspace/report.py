@@ -1,0 +1,59 @@
+"""Everything ``handarm workspace`` writes for one design.
+
+::
+
+    OUT/workspace.npz          the map (compressed): index, mean solutions, reachable, grid
+    OUT/workspace.json         scores, the paper's minimum-reach check, per-joint sensitivity
+    OUT/pictures/workspace_xy.png, workspace_xz.png, sensitivity.png
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from handarm._io import write_text_atomic
+from handarm.design import ArmDesign
+from handarm.workspace.maps import reachability_map
+from handarm.workspace.plots import sensitivity_picture, slice_picture
+from handarm.workspace.scores import joint_sensitivity, map_scores, min_reach_check
+
+__all__ = ["write_workspace_outputs"]
+
+
+def write_workspace_outputs(
+    design: ArmDesign,
+    out: str | Path,
+    *,
+    voxel: float = 0.01,
+    directions: int = 100,
+    threshold: float = 0.5,
+    sensitivity: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Path]:
+    """Map, scores and pictures of ``design`` into ``out``; returns the paths written."""
+    out = Path(out)
+    wmap = reachability_map(design, voxel, directions, progress=progress)
+    written = [wmap.save_npz(out / "workspace.npz")]
+    report = {
+        "design": design.name,
+        "voxel_m": voxel,
+        "directions": len(wmap.directions),
+        "mirrored_y_z": list(wmap.mirrored),
+        "ik_queries": wmap.queries,
+        "ik_queries_per_second": wmap.queries / max(wmap.seconds, 1e-9),
+        "scores": map_scores(wmap, threshold),
+        "min_reach_check": min_reach_check(design),
+    }
+    if sensitivity:
+        report["sensitivity"] = joint_sensitivity(design, threshold=threshold)
+        written.append(
+            sensitivity_picture(report["sensitivity"], out / "pictures" / "sensitivity.png")
+        )
+    path = out / "workspace.json"
+    write_text_atomic(path, json.dumps(report, indent=2) + "\n")
+    written.append(path)
+    for plane in ("xy", "xz"):
+        written.append(slice_picture(wmap, plane, out / "pictures" / f"workspace_{plane}.png"))
+    return written

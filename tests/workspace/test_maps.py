@@ -1,0 +1,112 @@
+import json
+import math
+
+import numpy as np
+import pytest
+
+import handarm
+from handarm import ik
+from handarm.workspace.maps import direction_set, reachability_map, symmetries
+from handarm.workspace.scores import design_score, joint_sensitivity, map_scores, min_reach_check
+
+
+@pytest.fixture(scope="module")
+def design():
+    return handarm.ArmDesign()
+
+
+@pytest.fixture(scope="module")
+def coarse(design):
+    return reachability_map(design, 0.03, 40)
+
+
+def test_direction_set_is_even_and_mirror_symmetric():
+    d = direction_set(100)
+    assert len(d) == 100
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    for axis in (1, 2):
+        m = d.copy()
+        m[:, axis] *= -1
+        assert {tuple(np.round(v, 12)) for v in m} == {tuple(np.round(v, 12)) for v in d}
+    # spread: the mean direction is near zero and no two directions coincide
+    assert np.linalg.norm(d.mean(axis=0)) < 0.05
+    dots = d @ d.T - 2 * np.eye(len(d))
+    assert dots.max() < 0.99
+
+
+def test_mirrored_map_equals_the_full_computation(design, coarse):
+    assert coarse.mirrored == (True, True)
+    full = reachability_map(design, 0.03, 40, use_symmetry=False)
+    assert full.mirrored == (False, False)
+    np.testing.assert_array_equal(coarse.index, full.index)
+    np.testing.assert_array_equal(coarse.mean_solutions, full.mean_solutions)
+    assert coarse.queries * 3.5 < full.queries
+
+
+def test_asymmetric_limits_are_not_mirrored(design):
+    d = design.replace(joint_limits=((-2.0, 1.0),) + design.joint_limits[1:])
+    assert symmetries(d) == (False, True)
+    m = reachability_map(d, 0.05, 16)
+    assert m.mirrored == (False, True)
+
+
+def test_map_agrees_with_direct_ik_queries(design, coarse, rng):
+    c = coarse.centres
+    inside = np.argwhere(coarse.reachable)
+    picks = inside[rng.choice(len(inside), 30, replace=False)]
+    for i, j, k in picks:
+        p = np.array([c[i], c[j], c[k]])
+        solvable = [ik.solve(design, p, e, degrade=False).count > 0 for e in coarse.directions]
+        assert coarse.index[i, j, k] == pytest.approx(np.mean(solvable))
+        counts = [ik.solve(design, p, e, degrade=False).count for e in coarse.directions]
+        assert coarse.mean_solutions[i, j, k] == pytest.approx(np.mean(counts), rel=1e-6)
+
+
+def test_nothing_outside_the_reach_sphere(coarse):
+    c = coarse.centres
+    gx, gy, gz = np.meshgrid(c, c, c, indexing="ij")
+    r = np.sqrt(gx**2 + gy**2 + gz**2)
+    assert not coarse.reachable[r > coarse.reach + coarse.voxel].any()
+    assert ((coarse.index >= 0) & (coarse.index <= 1)).all()
+
+
+def test_npz_round_trip(coarse, tmp_path):
+    path = coarse.save_npz(tmp_path / "m.npz")
+    with np.load(path) as z:
+        np.testing.assert_array_equal(z["index"], coarse.index)
+        assert float(z["voxel"]) == coarse.voxel
+
+
+def test_scores(coarse, design):
+    s = map_scores(coarse)
+    cell = coarse.voxel**3
+    assert s["reachable_volume_m3"] == pytest.approx(coarse.reachable.sum() * cell)
+    assert 0 < s["dexterous_volume_m3"] < s["reachable_volume_m3"] < s["reference_volume_m3"]
+    assert design_score(s, 0.07, 5e-5) == pytest.approx(
+        (s["reachable_volume_m3"] + s["dexterous_volume_m3"]) / s["reference_volume_m3"] - 0.35
+    )
+    with pytest.raises(ValueError, match="weights: unknown weight 'speed'"):
+        design_score(s, 0.07, 5e-5, {"speed": 1})
+    with pytest.raises(ValueError, match="threshold"):
+        map_scores(coarse, 0.0)
+
+
+def test_paper_minimum_reach(design):
+    check = min_reach_check(design)
+    for section in ("base", "tip"):
+        c = check[section]
+        assert c["paper_formula_m"] == pytest.approx(2 * 0.05 * math.sin(math.radians(15)))
+        assert c["agrees"]
+        assert c["measured_m"] == pytest.approx(c["paper_formula_m"], abs=1e-6)
+    json.dumps(check)
+
+
+def test_joint_sensitivity_structure(design):
+    s = joint_sensitivity(design, delta_deg=20, voxel=0.05, directions=16)
+    assert [r["joint"] for r in s["joints"]] == [1, 2, 3, 4, 5, 6]
+    # taking range away never adds workspace
+    assert all(r["reachable_m3_per_deg"] >= 0 for r in s["joints"])
+    assert 1 <= len(s["most_sensitive_reachable"]) <= 2
+    for j in s["most_sensitive_reachable"]:
+        assert s["joints"][j - 1]["reachable_m3_per_deg"] > 0
+    json.dumps(s)

@@ -1,0 +1,112 @@
+import csv
+import json
+
+import pytest
+
+from handarm.cli import main
+from handarm.workspace.study import load_study, run_study
+
+STUDY = """
+name = "tiny"
+voxel = 0.05
+directions = 12
+
+[grid]
+limit_deg_2 = [120, 150]
+
+[[designs]]
+name = "narrow-5"
+limit_deg_5 = 100
+"""
+
+
+@pytest.fixture
+def study_file(tmp_path):
+    path = tmp_path / "study.toml"
+    path.write_text(STUDY)
+    return path
+
+
+def test_load_study(study_file):
+    study = load_study(study_file)
+    assert [d[0] for d in study.designs] == ["limit_deg_2=120", "limit_deg_2=150", "narrow-5"]
+    assert study.designs[2][2].upper[4] == pytest.approx(100 * 3.141592653589793 / 180)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("colour = 1", "unknown key 'colour'"),
+        ("[grid]\nlimit_deg_9 = [1]", "joint number must be 1..6"),
+        ("[grid]\nlimit_deg_2 = 120", "grid.limit_deg_2: expected a non-empty list"),
+        ("[grid]\nclearance = [-1.0]", "clearance: must be > 0"),
+        ("[grid]\nbogus = [1]", "unknown field 'bogus'"),
+        ("[weights]\nspeed = 1", "weights: unknown weight 'speed'"),
+        ("voxel = 0", "voxel: must be > 0"),
+        ("name = [", "not valid TOML"),
+    ],
+)
+def test_bad_study_files_name_the_problem(tmp_path, text, message):
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=message):
+        load_study(path)
+
+
+def test_run_resume_and_worker_count(study_file, tmp_path):
+    study = load_study(study_file)
+    # an interrupted run: one design finished
+    first = run_study(study, tmp_path / "a", workers=1, stop_after=1)
+    assert first["computed"] == 1 and len(first["rows"]) == 1
+    second = run_study(study, tmp_path / "a", workers=2)
+    assert second["computed"] == 2 and second["reused"] == 1
+    third = run_study(study, tmp_path / "a", workers=2)
+    assert third["computed"] == 0 and third["reused"] == 3
+    # the same numbers whatever the number of workers
+    other = run_study(study, tmp_path / "b", workers=1)
+    for r1, r2 in zip(third["rows"], other["rows"], strict=True):
+        for key in ("reachable_volume_m3", "dexterous_volume_m3", "mass_kg", "score"):
+            assert r1[key] == r2[key]
+    rows = list(csv.DictReader((tmp_path / "a" / "results.csv").open()))
+    assert [r["name"] for r in rows] == ["limit_deg_2=120", "limit_deg_2=150", "narrow-5"]
+    assert any(r["pareto"] == "True" for r in rows)
+    for name in ("pareto.png", "best_xy.png", "best_xz.png"):
+        assert (tmp_path / "a" / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["finished"] == 3
+    # wider limits: lighter carved links and at least as much workspace
+    by = {r["name"]: r for r in third["rows"]}
+    assert by["limit_deg_2=150"]["mass_kg"] <= by["limit_deg_2=120"]["mass_kg"]
+    assert (
+        by["limit_deg_2=150"]["reachable_volume_m3"] >= by["limit_deg_2=120"]["reachable_volume_m3"]
+    )
+
+
+def test_study_and_workspace_commands(study_file, tmp_path, capsys):
+    assert (
+        main(["study", str(study_file), "--out", str(tmp_path / "s"), "--quiet", "--workers", "1"])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "3 designs computed" in out and "Pareto front" in out
+    assert (
+        main(
+            [
+                "workspace",
+                "--out",
+                str(tmp_path / "w"),
+                "--voxel",
+                "0.05",
+                "--directions",
+                "12",
+                "--no-sensitivity",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    report = json.loads((tmp_path / "w" / "workspace.json").read_text())
+    assert report["scores"]["reachable_volume_m3"] > 0
+    assert (tmp_path / "w" / "workspace.npz").exists()
+    code = main(["study", str(tmp_path / "none.toml"), "--out", str(tmp_path / "x")])
+    assert code == 2 and "study file not found" in capsys.readouterr().err
