@@ -19,7 +19,7 @@ from handarm.cad_out.meshes import to_trimesh  # noqa: E402
 from handarm.carve.carving import CarveResult  # noqa: E402
 from handarm.kinematics import joint_frames  # noqa: E402
 
-__all__ = ["link_picture", "arm_picture", "folded_pose"]
+__all__ = ["link_picture", "arm_picture", "folded_pose", "save_png"]
 
 _COLOURS = ["#5b6770", "#2f7ebc", "#e0892b", "#3a9e5c", "#c0392b", "#8e5cc2", "#d4a017"]
 
@@ -47,7 +47,8 @@ def _frame_axes(ax, points, title):
     ax.set_title(title)
 
 
-def _save(fig, path) -> Path:
+def save_png(fig, path: str | os.PathLike[str]) -> Path:
+    """Render a matplotlib figure to PNG atomically and close it."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -65,7 +66,7 @@ def link_picture(result: CarveResult, k: int, path: str | os.PathLike[str]) -> P
     _draw(ax, mesh, _COLOURS[k])
     ax.view_init(elev=28, azim=-60)
     _frame_axes(ax, mesh.vertices, f"{link.name} (carved), {mesh.volume:.0f} mm³")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def folded_pose(result: CarveResult) -> np.ndarray:
@@ -96,4 +97,4 @@ def arm_picture(result: CarveResult, q, path: str | os.PathLike[str], title: str
         points.append(mesh.vertices)
     ax.view_init(elev=30, azim=-55)
     _frame_axes(ax, np.concatenate(points), title)
-    return _save(fig, path)
+    return save_png(fig, path)

@@ -77,8 +77,6 @@ class LinkBlank:
     holes: tuple[Hole, ...]
     length: float
     dist_from_prox: np.ndarray | None
-    has_prox: bool
-    has_dist: bool
 
     @property
     def name(self) -> str:
@@ -216,7 +214,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
                 Hole(f"cable {c + 1} exit", "dist", (-a - plate - 1, 0, z), (-a + 1, 0, z), cable_r)
             )
         holes.append(_axle(g, "dist"))
-        return LinkBlank(0, tuple(parts), tuple(holes), a, None, False, True)
+        return LinkBlank(0, tuple(parts), tuple(holes), a, None)
     g_prox = joint_geometry(design, k)
     t = g_prox.tongue_thickness / 2
     parts.append(_tongue(g_prox))
@@ -227,7 +225,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
         boss = max(bw, 6.0)
         parts.append(Part("tool mount", "prox", _box(a - 10.0, a, -boss, boss), -t, t))
         holes.append(Hole("tool bore", "prox", (a - 8.0, 0, 0), (a + 1.0, 0, 0), 2.0))
-        return LinkBlank(6, tuple(parts), tuple(holes), a, None, True, False)
+        return LinkBlank(6, tuple(parts), tuple(holes), a, None)
     g_dist = joint_geometry(design, k + 1)
     # the fork runs back along half the link; its bridge and the beam stop short of the
     # neighbour's tongue
@@ -240,4 +238,4 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     parts.append(Part("beam", "prox", _box(0.0, a - clear, -bw, bw), -t, t))
     parts += _fork(g_dist, "dist", length=length, clear=clear)
     holes.append(_axle(g_dist, "dist"))
-    return LinkBlank(k, tuple(parts), tuple(holes), a, dist, True, True)
+    return LinkBlank(k, tuple(parts), tuple(holes), a, dist)

@@ -27,7 +27,6 @@ MODEL_NUMBER = 310  # MX-64 with Protocol 1.0 firmware
 MODEL_NUMBER_MX2 = 311  # MX-64 with MX(2.0) firmware: a different control table
 TICKS_PER_REV = 4096
 MULTI_TURN_LIMIT = 28672  # |Goal Position| in multi-turn mode (7 turns)
-JOINT_MODE_MAX = 4095
 
 #: Control-table addresses (Protocol 1.0 firmware), with their sizes in bytes.
 ADDR = {

@@ -429,14 +429,6 @@ def _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi):
 
 
 @nb.njit(**_JIT)
-def canonical_angles(nx, ny, dx, dy, tau, elbow, b1, b2, out):
-    """(qa, qb, qc) at tau on one elbow into ``out``; returns False outside the reach annulus."""
-    ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2, math.atan2(dy, dx))
-    out[0], out[1], out[2] = qa, qb, qc
-    return ok
-
-
-@nb.njit(**_JIT)
 def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim, psi):
     """Whether the canonical configuration at tau on ``elbow`` is valid (psi = angle of d)."""
     ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi)

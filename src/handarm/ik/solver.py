@@ -355,6 +355,16 @@ def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
     return q[:n].copy(), br[:n].astype(int), iv[:n].copy(), float(used[0])
 
 
+def _check_batch(design: ArmDesign, P, E):
+    """Checked (N, 3) targets and the azimuth each uses if its direction is vertical."""
+    check_design(design)
+    P, E = _check_target(P, E, "P", "E")
+    if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
+        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
+    return P, E, psi
+
+
 def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchResult:
     """5-DoF solutions of N targets, in parallel, in chunks of bounded memory.
 
@@ -372,10 +382,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
         Vertical directions are handled as in ``solve`` without ``current``. No
         degradation: a target without a 5-DoF solution has count 0.
     """
-    check_design(design)
-    P, E = _check_target(P, E, "P", "E")
-    if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
-        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    P, E, psi = _check_batch(design, P, E)
     n = len(P)
     counts = np.zeros(n, np.int64)
     # the kernel fills every row (solutions, then NaN padding): no second pass over memory
@@ -384,7 +391,6 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     iv = np.empty((n, MAX_SOLUTIONS, 2))
     h = np.hypot(E[:, 0], E[:, 1])
     vertical = h < K.VERTICAL_EPS
-    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
     a, lo, hi = design.lengths, design.lower, design.upper
     used = np.empty(n)
     for s in range(0, n, chunk):
@@ -415,13 +421,9 @@ def count_solutions(design: ArmDesign, P, E, *, chunk: int = 1 << 20) -> np.ndar
     The same answer as ``solve_batch(...).counts`` without storing any solution, so that
     millions of targets (workspace maps) run in little memory.
     """
-    check_design(design)
-    P, E = _check_target(P, E, "P", "E")
-    if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
-        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    P, E, psi = _check_batch(design, P, E)
     n = len(P)
     counts = np.zeros(n, np.int64)
-    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
     for s in range(0, n, chunk):
         sl = slice(s, min(n, s + chunk))
         K.count_many(

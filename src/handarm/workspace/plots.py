@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
@@ -12,19 +11,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from handarm._io import write_bytes_atomic  # noqa: E402
+from handarm.cad_out.pictures import save_png  # noqa: E402
 from handarm.workspace.maps import ReachabilityMap  # noqa: E402
 
 __all__ = ["slice_picture", "pareto_picture", "sensitivity_picture"]
-
-
-def _save(fig, path) -> Path:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    path = Path(path)
-    write_bytes_atomic(path, buf.getvalue())
-    return path
 
 
 def slice_picture(
@@ -58,7 +48,7 @@ def slice_picture(
     ax.set_ylim(c[0] - h, c[-1] + h)
     ax.set_title(title or f"reachability, {plane} slice, {wmap.voxel * 1000:g} mm voxels")
     ax.legend(loc="lower left", fontsize=8)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def pareto_picture(rows, path, x="mass_kg", y="workspace_score") -> Path:
@@ -77,7 +67,7 @@ def pareto_picture(rows, path, x="mass_kg", y="workspace_score") -> Path:
     ax.set_ylabel("workspace score (reachable + dexterous volume, normalised)")
     ax.legend()
     ax.set_title("trade study: workspace against mass")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def sensitivity_picture(sensitivity: dict, path) -> Path:
@@ -93,4 +83,4 @@ def sensitivity_picture(sensitivity: dict, path) -> Path:
     ax.set_ylabel("volume lost per degree of limit (cm³/deg)")
     ax.set_title(f"per-joint sensitivity (limits reduced by {sensitivity['delta_deg']:g} deg)")
     ax.legend()
-    return _save(fig, path)
+    return save_png(fig, path)

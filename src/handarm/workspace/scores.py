@@ -137,10 +137,16 @@ def joint_sensitivity(
             }
         )
     # the two joints that lose the most; joints that lose nothing are not ranked
-    top_reach = [r for r in sorted(rows, key=lambda r: -r["reachable_m3_per_deg"])[:2]
-                 if r["reachable_m3_per_deg"] > 0]
-    top_dex = [r for r in sorted(rows, key=lambda r: -r["dexterous_m3_per_deg"])[:2]
-               if r["dexterous_m3_per_deg"] > 0]
+    top_reach = [
+        r
+        for r in sorted(rows, key=lambda r: -r["reachable_m3_per_deg"])[:2]
+        if r["reachable_m3_per_deg"] > 0
+    ]
+    top_dex = [
+        r
+        for r in sorted(rows, key=lambda r: -r["dexterous_m3_per_deg"])[:2]
+        if r["dexterous_m3_per_deg"] > 0
+    ]
     return {
         "delta_deg": delta_deg,
         "voxel_m": voxel,
