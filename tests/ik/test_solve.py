@@ -124,6 +124,23 @@ def test_solve_batch_chunks_give_the_same_answer(paper):
     np.testing.assert_array_equal(a.solutions, b.solutions)
 
 
+def test_solve_batch_iter_and_counts_match_solve_batch(paper):
+    rng = np.random.default_rng(8)
+    q = valid_configurations(paper, rng, 250)
+    p, e = handarm.forward(paper, q)
+    p = np.concatenate([p, rng.uniform(-0.3, 0.3, (250, 3))])
+    e = np.concatenate([e, rng.normal(size=(250, 3))])
+    whole = ik.solve_batch(paper, p, e)
+    starts = []
+    for start, part in ik.solve_batch_iter(paper, p, e, chunk=64):
+        starts.append(start)
+        np.testing.assert_array_equal(part.counts, whole.counts[start : start + 64])
+        np.testing.assert_array_equal(part.solutions, whole.solutions[start : start + 64])
+    assert starts == list(range(0, 500, 64))
+    counts = ik.count_solutions(paper, p, e)
+    np.testing.assert_array_equal(np.minimum(counts, ik.MAX_SOLUTIONS), whole.counts)
+
+
 def test_configuration_at_any_u_inside_a_range(paper):
     rng = np.random.default_rng(5)
     for q0 in valid_configurations(paper, rng, 50):

@@ -70,7 +70,9 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
     rows = list(csv.DictReader((tmp_path / "a" / "results.csv").open()))
     assert [r["name"] for r in rows] == ["limit_deg_2=120", "limit_deg_2=150", "narrow-5"]
     assert any(r["pareto"] == "True" for r in rows)
-    for name in ("pareto.png", "best_xy.png", "best_xz.png"):
+    sens = json.loads((tmp_path / "a" / "sensitivity.json").read_text())
+    assert [r["joint"] for r in sens["joints"]] == [1, 2, 3, 4, 5, 6]
+    for name in ("pareto.png", "best_xy.png", "best_xz.png", "sensitivity.png"):
         assert (tmp_path / "a" / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["finished"] == 3

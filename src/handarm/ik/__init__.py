@@ -16,6 +16,7 @@ from handarm.ik.solver import (
     nearest_solution,
     solve,
     solve_batch,
+    solve_batch_iter,
 )
 
 __all__ = [
@@ -30,4 +31,5 @@ __all__ = [
     "nearest_solution",
     "solve",
     "solve_batch",
+    "solve_batch_iter",
 ]

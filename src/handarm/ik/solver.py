@@ -23,6 +23,7 @@ __all__ = [
     "BatchResult",
     "solve",
     "solve_batch",
+    "solve_batch_iter",
     "branch_of",
     "format_result",
     "configuration_at",
@@ -413,6 +414,27 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     truncated = counts > MAX_SOLUTIONS
     counts = np.minimum(counts, MAX_SOLUTIONS)
     return BatchResult(counts, sols, br, iv, truncated, vertical, used)
+
+
+def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
+    """``solve_batch`` chunk by chunk: yields (start, BatchResult) for rows start..start+len.
+
+    Memory stays bounded by the chunk whatever N is (1e7 targets at 1.6 kB of padded
+    output each would need 16 GB at once); ``P`` and ``E`` may be memory-mapped arrays.
+    """
+    if chunk < 1:
+        raise ValueError(f"chunk: must be >= 1, got {chunk}")
+    n = len(P)
+    for start in range(0, n, chunk):
+        yield (
+            start,
+            solve_batch(
+                design,
+                np.asarray(P[start : start + chunk]),
+                np.asarray(E[start : start + chunk]),
+                chunk=chunk,
+            ),
+        )
 
 
 def count_solutions(design: ArmDesign, P, E, *, chunk: int = 1 << 20) -> np.ndarray:

@@ -24,7 +24,8 @@ Every design is carved (mass, minimum cross-section, achieved limits) and mapped
 achieved limits (the limits the printed links really allow, within the requested ones).
 Results go to ``OUT/designs/<key>.json`` as each design finishes (atomically), so an
 interrupted run loses nothing and a re-run only computes what is missing. The table, the
-Pareto front and the pictures are made from those files.
+Pareto front and the pictures are made from those files; the per-joint sensitivity of the
+base design goes to ``OUT/sensitivity.json``.
 """
 
 from __future__ import annotations
@@ -46,7 +47,14 @@ import numpy as np
 from handarm._io import write_bytes_atomic, write_text_atomic
 from handarm.design import ArmDesign
 
-__all__ = ["Study", "load_study", "evaluate_design", "run_study", "study_table"]
+__all__ = [
+    "Study",
+    "load_study",
+    "evaluate_design",
+    "run_study",
+    "study_table",
+    "study_sensitivity",
+]
 
 _SETTINGS = ("voxel", "directions", "threshold")
 _STUDY_KEYS = {"name", "design", "grid", "designs", "weights", *_SETTINGS}
@@ -278,7 +286,37 @@ def run_study(
             pending, settings, study.weights, out, scheduler, workers, progress, done, total
         )
     rows = study_table(study, out)
+    study_sensitivity(study, out)
     return {"computed": len(pending), "reused": reused, "rows": rows}
+
+
+def study_sensitivity(study: Study, out: str | os.PathLike[str]) -> dict:
+    """Per-joint sensitivity of the study's base design, at the study's map settings.
+
+    Kept in ``out/sensitivity.json`` (with ``pictures/sensitivity.png``) and reused when the
+    base design and settings are unchanged.
+    """
+    from handarm.workspace.plots import sensitivity_picture
+    from handarm.workspace.scores import joint_sensitivity
+
+    out = Path(out)
+    path = out / "sensitivity.json"
+    key = _key(
+        study.base,
+        {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold},
+    )
+    if path.exists():
+        data = json.loads(path.read_text())
+        if data.get("key") == key:
+            return data
+    data = joint_sensitivity(
+        study.base, voxel=study.voxel, directions=study.directions, threshold=study.threshold
+    )
+    data["key"] = key
+    data["design"] = study.base.name
+    write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+    sensitivity_picture(data, out / "pictures" / "sensitivity.png")
+    return data
 
 
 def _compute(pending, settings, weights, out, scheduler, workers, progress, done, total) -> int:
