@@ -89,20 +89,16 @@ def test_every_subcommand_has_help(capsys):
         assert "usage: handarm" in capsys.readouterr().out
 
 
-def test_console_script_runs():
-    result = subprocess.run(
-        [sys.executable, "-m", "handarm.cli", "--help"], capture_output=True, text=True, check=False
-    )
-    assert result.returncode == 0
-    assert "build" in result.stdout
-
-
-def test_readme_and_ci_run_the_same_test_command():
-    readme = (ROOT / "README.md").read_text()
-    ci = (ROOT / ".ci" / "run").read_text()
-    test_cmd = 'python -m pip install ".[test]" && python -m pytest'
-    assert test_cmd in "\n".join(readme.splitlines()[:15])
-    assert test_cmd in ci
+def test_console_script_runs_even_without_docstrings():
+    for flags in ([], ["-OO"]):
+        result = subprocess.run(
+            [sys.executable, *flags, "-m", "handarm.cli", "--help"],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 0, result.stderr
+        assert "build" in result.stdout
 
 
 def test_ik_command_table_and_json(capsys):

@@ -184,3 +184,24 @@ def test_collinear_segments():
     assert segments_intersect(a, b, np.array([0.5, 0.0]), np.array([2.0, 0.0]))
     assert segments_intersect(a, b, np.array([1.0, 0.0]), np.array([2.0, 0.0]))  # touching
     assert not segments_intersect(a, b, np.array([1.5, 0.0]), np.array([2.0, 0.0]))
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    pts=st.lists(st.tuples(st.integers(-4, 4), st.integers(-4, 4)), min_size=4, max_size=4),
+    scale=st.sampled_from([1.0, 0.05, 1e-3]),
+    jitter=st.floats(-1e-12, 1e-12),
+)
+def test_numpy_and_numba_segment_predicates_agree(pts, scale, jitter):
+    """kinematics.segments_intersect (numpy) and the IK kernel's segments_touch (numba).
+
+    Integer grid points make collinear, touching and endpoint-sharing cases common; a
+    sub-tolerance jitter checks that both round the same way.
+    """
+    from handarm.ik._classify import segments_touch
+
+    p = np.array(pts, dtype=float) * scale
+    p[0, 0] += jitter
+    numpy_says = bool(segments_intersect(p[0], p[1], p[2], p[3]))
+    numba_says = bool(segments_touch(*p[0], *p[1], *p[2], *p[3]))
+    assert numpy_says == numba_says

@@ -20,14 +20,13 @@ import numpy as np
 import tomli_w
 
 from handarm._io import write_text_atomic
+from handarm.servo import SERVOS, ServoSpec
 
-__all__ = ["ArmDesign", "PAPER_LIMITS_DEG", "SERVO_MODELS"]
+__all__ = ["ArmDesign", "PAPER_LIMITS_DEG"]
 
 #: Joint limits of the paper's arm (section II-A.2), degrees, symmetric.
 PAPER_LIMITS_DEG = (135.0, 150.0, 135.0, 125.0, 150.0, 150.0)
 
-#: Servo models the bridge knows: name -> Protocol 1.0 model number.
-SERVO_MODELS = {"MX-64T": 310, "MX-64AT": 310}
 
 _N_JOINTS = 6
 _N_LINKS = 7
@@ -78,7 +77,7 @@ class ArmDesign:
     servo_ids : tuple of 6 int
         Dynamixel IDs of the motors driving joints 1..6.
     servo_model : str
-        Servo model name, one of ``SERVO_MODELS``.
+        Servo model name, one of ``handarm.servo.SERVOS``.
     baud_rate : int
         Servo bus baud rate (bit/s).
     density : float
@@ -113,6 +112,11 @@ class ArmDesign:
         _check_relations(self)
 
     # -- derived arrays (read-only, computed once per design) -------------------------------
+
+    @cached_property
+    def servo(self) -> ServoSpec:
+        """The specification of the design's servo model."""
+        return SERVOS[self.servo_model]
 
     @cached_property
     def lengths(self) -> np.ndarray:
@@ -274,8 +278,8 @@ def _normalise(name: str, value: Any) -> Any:
     if name in ("name", "servo_model"):
         if not isinstance(value, str) or not value:
             raise ValueError(f"{name}: expected a non-empty string, got {value!r}")
-        if name == "servo_model" and value not in SERVO_MODELS:
-            raise ValueError(f"servo_model: unknown model {value!r}; known: {sorted(SERVO_MODELS)}")
+        if name == "servo_model" and value not in SERVOS:
+            raise ValueError(f"servo_model: unknown model {value!r}; known: {sorted(SERVOS)}")
         return value
     if name == "link_lengths":
         seq = _sequence(name, value, _N_LINKS)

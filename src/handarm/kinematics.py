@@ -1,6 +1,6 @@
 """Forward kinematics of the arm, batched over any leading dimensions.
 
-The chain is fixed by DESIGN.md section 2::
+The chain is fixed (outside tools rely on it)::
 
     T(q) = Rz(q1) Tx(a1) Rz(q2) Tx(a2) Rz(q3) Tx(a3) Rx(+90deg)
            Rz(q4) Tx(a4) Rz(q5) Tx(a5) Rz(q6) Tx(a6)

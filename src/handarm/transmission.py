@@ -24,8 +24,6 @@ __all__ = [
     "motor_ranges",
     "ticks_from_motor",
     "motor_from_ticks",
-    "STALL_TORQUE",
-    "NO_LOAD_SPEED",
     "coupling_matrix",
     "motor_from_joint",
     "joint_from_motor",
@@ -34,11 +32,6 @@ __all__ = [
     "joint_effort_limits",
     "joint_velocity_limits",
 ]
-
-#: MX-64T stall torque at 12 V (N m).
-STALL_TORQUE = 6.0
-#: MX-64T no-load speed at 12 V (rad/s): 63 rpm.
-NO_LOAD_SPEED = 63.0 * 2.0 * math.pi / 60.0
 
 
 def coupling_matrix(design: ArmDesign) -> np.ndarray:
@@ -77,25 +70,24 @@ def motor_torque_from_joint(design: ArmDesign, tau_joint) -> np.ndarray:
     return solve_triangular(k.T, flat, lower=False).T.reshape(tau_joint.shape)
 
 
-def joint_effort_limits(design: ArmDesign, stall_torque: float = STALL_TORQUE) -> np.ndarray:
+def joint_effort_limits(design: ArmDesign, stall_torque: float | None = None) -> np.ndarray:
     """Largest torque each joint can see with all motors at stall, shape (6,), N m.
 
-    Joint j is driven by every cable that wraps it: sum_k |K_kj| * stall.
+    Joint j is driven by every cable that wraps it: sum_k |K_kj| * stall. ``stall_torque``
+    defaults to the design's servo specification.
     """
-    return np.abs(coupling_matrix(design)).sum(axis=0) * stall_torque
+    stall = design.servo.stall_torque if stall_torque is None else stall_torque
+    return np.abs(coupling_matrix(design)).sum(axis=0) * stall
 
 
-def joint_velocity_limits(design: ArmDesign, motor_speed: float = NO_LOAD_SPEED) -> np.ndarray:
+def joint_velocity_limits(design: ArmDesign, motor_speed: float | None = None) -> np.ndarray:
     """Fastest each joint can turn alone, every motor within its speed, shape (6,), rad/s.
 
     Turning joint j alone moves motor k at K_kj * qdot_j, so qdot_j <= speed / max_k |K_kj|.
+    ``motor_speed`` defaults to the no-load speed of the design's servo.
     """
-    return motor_speed / np.abs(coupling_matrix(design)).max(axis=0)
-
-
-TICKS_PER_RADIAN = 4096 / (2.0 * math.pi)
-_MULTI_TURN_LIMIT = 28672
-_ONE_TURN = 4095  # joint mode: Goal Position 0..4095
+    speed = design.servo.no_load_speed if motor_speed is None else motor_speed
+    return speed / np.abs(coupling_matrix(design)).max(axis=0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,11 +102,12 @@ class MotorRange:
     lo: float
     hi: float
     mode: str
+    ticks_per_radian: float
 
     @property
     def travel_ticks(self) -> float:
         """Travel in encoder ticks."""
-        return (self.hi - self.lo) * TICKS_PER_RADIAN
+        return (self.hi - self.lo) * self.ticks_per_radian
 
 
 def motor_ranges(design: ArmDesign, lower=None, upper=None) -> list[MotorRange]:
@@ -126,40 +119,44 @@ def motor_ranges(design: ArmDesign, lower=None, upper=None) -> list[MotorRange]:
     Raises
     ------
     ValueError
-        If a motor would need more than the multi-turn mode's +-28672 ticks (allowing for
-        the up to one turn the zero pose may sit at after power-on).
+        If a motor would need more than the servo's multi-turn range (MX-64: +-28672
+        ticks), allowing for the up to one turn the zero pose may sit at after power-on.
     """
     k = coupling_matrix(design)
     lo = design.lower if lower is None else np.asarray(lower, float)
     hi = design.upper if upper is None else np.asarray(upper, float)
     a, b = k * lo[None, :], k * hi[None, :]
     mins, maxs = np.minimum(a, b).sum(axis=1), np.maximum(a, b).sum(axis=1)
+    servo = design.servo
+    tpr = servo.ticks_per_radian
     out = []
     for m in range(6):
-        span = (maxs[m] - mins[m]) * TICKS_PER_RADIAN
-        reach = max(abs(mins[m]), abs(maxs[m])) * TICKS_PER_RADIAN
-        if span <= _ONE_TURN:
+        span = (maxs[m] - mins[m]) * tpr
+        reach = max(abs(mins[m]), abs(maxs[m])) * tpr
+        if span <= servo.joint_mode_max:
             mode = "joint"
-        elif reach + 4096 <= _MULTI_TURN_LIMIT:
+        elif reach + servo.ticks_per_rev <= servo.multi_turn_limit:
             mode = "multi-turn"
         else:
             raise ValueError(
                 f"joint_limits: motor {m + 1} would turn {math.degrees(maxs[m] - mins[m]):.0f} "
-                f"degrees ({reach:.0f} ticks from the zero pose); the MX-64 multi-turn mode "
-                f"reaches +-{_MULTI_TURN_LIMIT - 4096} ticks beyond its power-on turn. Use "
+                f"degrees ({reach:.0f} ticks from the zero pose); the {servo.name} multi-turn "
+                f"mode reaches +-{servo.multi_turn_limit - servo.ticks_per_rev} ticks beyond "
+                "its power-on turn. Use "
                 "larger motor pulleys, smaller joint pulleys or smaller limits"
             )
-        out.append(MotorRange(m + 1, float(mins[m]), float(maxs[m]), mode))
+        out.append(MotorRange(m + 1, float(mins[m]), float(maxs[m]), mode, tpr))
     return out
 
 
-def ticks_from_motor(phi, offsets) -> np.ndarray:
+def ticks_from_motor(design: ArmDesign, phi, offsets) -> np.ndarray:
     """Raw encoder ticks (rounded) from motor angles (rad) and zero-pose offsets (ticks)."""
     phi = check_array(phi, "phi", 6)
-    return np.rint(np.asarray(offsets, float) + phi * TICKS_PER_RADIAN).astype(np.int64)
+    tpr = design.servo.ticks_per_radian
+    return np.rint(np.asarray(offsets, float) + phi * tpr).astype(np.int64)
 
 
-def motor_from_ticks(ticks, offsets) -> np.ndarray:
+def motor_from_ticks(design: ArmDesign, ticks, offsets) -> np.ndarray:
     """Motor angles (rad) from raw encoder ticks and zero-pose offsets (ticks)."""
     ticks = check_array(ticks, "ticks", 6)
-    return (ticks - np.asarray(offsets, float)) / TICKS_PER_RADIAN
+    return (ticks - np.asarray(offsets, float)) / design.servo.ticks_per_radian

@@ -7,7 +7,7 @@ import trimesh
 import yourdfpy
 
 import handarm
-import handarm.cad_out.meshes
+import handarm.carve.properties
 from handarm.cad_out.carve_files import write_carve_outputs
 from handarm.carve import carve
 
@@ -42,9 +42,19 @@ def test_3mf_plate_holds_every_link(result, out):
     volumes = sorted(g.volume for g in scene.geometry.values())
     expected = sorted(link.solid.volume() for link in result.links)
     np.testing.assert_allclose(volumes, expected, rtol=1e-6)
-    # laid out without overlaps
-    boxes = [scene.graph[name][0] for name in scene.graph.nodes_geometry]
+    # laid out without overlaps: the parts' footprints on the bed are disjoint
+    boxes = []
+    for node in scene.graph.nodes_geometry:
+        transform, geom = scene.graph[node]
+        mesh = scene.geometry[geom].copy().apply_transform(transform)
+        boxes.append(mesh.bounds)
+        assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-4)  # on the bed
     assert len(boxes) == 7
+    for i in range(7):
+        for j in range(i + 1, 7):
+            a, b = boxes[i], boxes[j]
+            apart = (a[1, :2] <= b[0, :2]) | (b[1, :2] <= a[0, :2])
+            assert apart.any(), f"parts {i} and {j} overlap on the plate"
 
 
 def test_link_json(result, out):
@@ -86,7 +96,7 @@ def test_urdf_meshes_sit_in_their_link_frames(result, out):
             mesh = trimesh.load(out / visual.geometry.mesh.filename, file_type="stl")
             mesh.apply_scale(visual.geometry.mesh.scale[0])
             mesh.apply_transform(robot.get_transform(link_name, "base_link") @ visual.origin)
-            ours = handarm.cad_out.meshes.to_trimesh(result.links[k].solid)
+            ours = handarm.carve.properties.to_trimesh(result.links[k].solid)
             ours.apply_scale(1e-3)
             if k > 0:
                 ours.apply_transform(frames[i, k - 1])
@@ -94,3 +104,24 @@ def test_urdf_meshes_sit_in_their_link_frames(result, out):
     inertial = robot.link_map["link2"].inertial
     props = json.loads((out / "links" / "l2.json").read_text())
     assert inertial.mass == pytest.approx(props["mass_kg"])
+
+
+def test_export_with_achieved_limits_from_carve_json(result, out, tmp_path, capsys):
+    from handarm.cli import main
+
+    code = main(["bridge", "export", "--achieved", str(out / "carve.json"), "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    limits = json.loads((tmp_path / "controller.json").read_text())["joint_limits_rad"]
+    for (lo, hi), j, (dlo, dhi) in zip(
+        limits, result.joints, result.design.joint_limits, strict=True
+    ):
+        # the design's limits intersected with what the carved links allow
+        assert lo == pytest.approx(max(dlo, j.achieved[0]))
+        assert hi == pytest.approx(min(dhi, j.achieved[1]))
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"joints": [{"achieved_deg": [10, -10]}] }')
+    code = main(["bridge", "export", "--achieved", str(bad), "--out", str(tmp_path / "x")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--achieved" in err
+    assert not (tmp_path / "x").exists()

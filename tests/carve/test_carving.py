@@ -6,10 +6,10 @@ import trimesh
 from manifold3d import CrossSection, OpType
 
 import handarm
-from handarm.cad_out.meshes import to_trimesh
 from handarm.carve import carve, check_carvable, link_blank
 from handarm.carve.carving import _in_joint_frame
 from handarm.carve.parts import Part
+from handarm.carve.properties import to_trimesh
 from handarm.carve.sweep import sweep_parts
 
 

@@ -4,7 +4,7 @@ import pytest
 import handarm
 from handarm.firmware_bridge import sizing as S
 from handarm.kinematics import forward, joint_frames
-from handarm.transmission import STALL_TORQUE, coupling_matrix
+from handarm.transmission import coupling_matrix
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def test_max_payload_is_tight_over_every_gravity_direction(design, configs, rng)
     assert payload > 0
     dirs = rng.normal(size=(400, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    limit = 0.5 * STALL_TORQUE
+    limit = 0.5 * 6.0  # MX-64T stall torque at 12 V (e-manual)
     worst = max(
         np.abs(motor_torques(design, q, links, payload, S.GRAVITY * g)).max()
         for q in configs

@@ -3,9 +3,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from handarm.ik import _kernels as K
+from handarm.ik import _common as C
+from handarm.ik import _events as EV
+from handarm.ik import _poly as PL
 
-coef = arrays(np.float64, 7, elements=st.floats(-10, 10))
+# well-scaled coefficients, as the event polynomials have: subnormal ones make near-triple
+# roots at 0 that the companion-matrix reference itself misplaces by eps**(1/3)
+coef = arrays(
+    np.float64,
+    7,
+    elements=st.one_of(st.just(0.0), st.floats(1e-3, 10), st.floats(-10, -1e-3)),
+)
 
 
 @settings(max_examples=300, deadline=None)
@@ -15,7 +23,7 @@ def test_poly_roots_match_companion_matrix(c, lo, width):
     c[6] = 1.0  # monic sextic, as the boundary events are
     hi = lo + width
     out = np.empty(7)
-    n = K.poly_real_roots(c, 6, lo, hi, out, np.empty(K.WS_SIZE))
+    n = PL.poly_real_roots(c, 6, lo, hi, out, np.empty(C.WS_SIZE))
     ref = np.roots(c[::-1])
     real = np.sort(ref[np.abs(ref.imag) < 1e-7].real)
     # keep clearly interior simple roots; grazing double roots are ill-posed either way
@@ -24,7 +32,7 @@ def test_poly_roots_match_companion_matrix(c, lo, width):
         return
     got = np.sort(out[:n])
     for r in real:
-        assert np.min(np.abs(got - r)) < 1e-7 * (1 + abs(r))
+        assert len(got) and np.min(np.abs(got - r)) < 1e-7 * (1 + abs(r))
     for g in got:
         assert abs(np.polyval(c[::-1], g)) < 1e-6 * np.sum(np.abs(c) * (1 + abs(g)) ** np.arange(7))
 
@@ -33,23 +41,22 @@ def test_case7_roots_for_equal_lengths_solve_the_papers_equation():
     """Equal lengths: Q on l1 satisfies sin(phi) + sin(2 phi) = c (DESIGN.md section 3)."""
     # l1 along x (qa = 0): then Q = end of l3 on l1 means an isosceles fold
     b = 0.05
-    for qb in np.radians([100, 120, 140]):
+    for qb in np.radians([95, 100, 105, 110, 115]):
         # configuration: A = (b, 0), P = A + b w(qb); l3 from P along -w(qb)*... back to l1
         ax, ay = b, 0.0
         px, py = ax + b * np.cos(qb), ay + b * np.sin(qb)
         # choose l3's direction so that Q = P + b d lands on the x axis inside [0, b]
         # |Q - P| = b and Q_y = 0: Q_x = P_x - sqrt(b^2 - P_y^2)
         qx = px - np.sqrt(b * b - py * py)
-        if not 0 < qx < b:
-            continue
+        assert 0 < qx < b  # every chosen fold puts Q on l1: no case is skipped
         dx, dy = (qx - px) / b, (0 - py) / b
         # line through P along d; N is the foot from the origin
         t = px * dx + py * dy
         nx, ny = px - t * dx, py - t * dy
-        buf = np.empty(K.MAX_CAND)
-        tags = np.empty(K.MAX_CAND, np.int8)
+        buf = np.empty(C.MAX_CAND)
+        tags = np.empty(C.MAX_CAND, np.int8)
         lim = np.array([-3.1, 3.1, -3.1, 3.1, -3.1, 3.1])
-        n = K.canonical_events(
-            nx, ny, dx, dy, b, b, b, b, lim, -1.0, 1.0, buf, tags, np.empty(K.WS_SIZE)
+        n = EV.canonical_events(
+            nx, ny, dx, dy, b, b, b, b, lim, -1.0, 1.0, buf, tags, np.empty(C.WS_SIZE)
         )
         assert np.min(np.abs(buf[:n] - t)) < 1e-12

@@ -4,7 +4,8 @@ import json
 import pytest
 
 from handarm.cli import main
-from handarm.workspace.study import load_study, run_study
+from handarm.workspace.study_file import load_study
+from handarm.workspace.study_run import run_study
 
 STUDY = """
 name = "tiny"
@@ -41,7 +42,13 @@ def test_load_study(study_file):
         ("[grid]\nlimit_deg_2 = 120", "grid.limit_deg_2: expected a non-empty list"),
         ("[grid]\nclearance = [-1.0]", "clearance: must be > 0"),
         ("[grid]\nbogus = [1]", "unknown field 'bogus'"),
-        ("[weights]\nspeed = 1", "weights: unknown weight 'speed'"),
+        ("[weights]\nspeed = 1", "weights.speed: unknown weight"),
+        ("[weights]\nmass = 'heavy'", "weights.mass: expected a number"),
+        ("threshold = 2.0", "threshold: expected a number in"),
+        ('voxel = "0.02"', "voxel: expected a number of metres"),
+        ("directions = 4.5", "directions: expected an integer"),
+        ("[grid]", "grid: empty"),
+        ("[grid]\ndensity = ['heavy']", "density: expected a number"),
         ("voxel = 0", "voxel: must be > 0"),
         ("name = [", "not valid TOML"),
     ],

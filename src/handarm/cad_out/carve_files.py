@@ -22,18 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from handarm._io import write_text_atomic
-from handarm.cad_out.meshes import (
-    link_properties,
-    print_pose,
-    rpy_from_matrix,
-    write_3mf,
-    write_stl,
-)
+from handarm.cad_out.meshes import print_pose, rpy_from_matrix, write_3mf, write_stl
 from handarm.cad_out.pictures import arm_picture, folded_pose, link_picture
 from handarm.cad_out.urdf import LINK_NAMES, write_urdf
 from handarm.carve.carving import CarveResult
+from handarm.carve.properties import link_properties
 
-__all__ = ["write_carve_outputs", "urdf_mesh_elements", "OUTPUT_STEPS"]
+__all__ = ["write_carve_outputs", "urdf_mesh_elements", "read_achieved_limits", "OUTPUT_STEPS"]
 
 #: Progress ticks write_carve_outputs makes (for a progress bar's total).
 OUTPUT_STEPS = 7 + 1 + 7 + 9 + 2
@@ -141,3 +136,38 @@ def write_carve_outputs(
     )
     tick("urdf")
     return written
+
+
+def read_achieved_limits(path: str | Path) -> list[tuple[float, float]]:
+    """The achieved joint limits (rad) recorded in a ``carve.json``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        If the file is not a carve.json this module wrote, or its limits are malformed
+        (not 6 finite pairs with lower <= upper).
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+        pairs = [j["achieved_deg"] for j in data["joints"]]
+    except FileNotFoundError:
+        raise FileNotFoundError(f"file not found: {path}") from None
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a handarm carve.json ({exc})") from None
+    if len(pairs) != 6:
+        raise ValueError(f"{path}: expected 6 joints, found {len(pairs)}")
+    out = []
+    for k, pair in enumerate(pairs):
+        try:
+            lo, hi = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{path}: joint {k + 1}: achieved limits malformed: {pair!r}"
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise ValueError(f"{path}: joint {k + 1}: achieved limits {lo:g} > {hi:g} deg")
+        out.append((math.radians(lo), math.radians(hi)))
+    return out

@@ -2,24 +2,20 @@
 
 from __future__ import annotations
 
-import io
 import math
 import os
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.colors import to_rgb
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+from handarm._figures import new_figure, save_png
+from handarm.carve.carving import CarveResult
+from handarm.carve.properties import to_trimesh
+from handarm.kinematics import joint_frames
 
-from handarm._io import write_bytes_atomic  # noqa: E402
-from handarm.cad_out.meshes import to_trimesh  # noqa: E402
-from handarm.carve.carving import CarveResult  # noqa: E402
-from handarm.kinematics import joint_frames  # noqa: E402
-
-__all__ = ["link_picture", "arm_picture", "folded_pose", "save_png"]
+__all__ = ["link_picture", "arm_picture", "folded_pose"]
 
 _COLOURS = ["#5b6770", "#2f7ebc", "#e0892b", "#3a9e5c", "#c0392b", "#8e5cc2", "#d4a017"]
 
@@ -29,7 +25,7 @@ def _draw(ax, mesh, colour):
     normals = mesh.face_normals
     light = np.array([0.4, -0.5, 0.77])
     shade = 0.45 + 0.55 * np.clip(normals @ light, 0, 1)
-    rgb = np.array(matplotlib.colors.to_rgb(colour))
+    rgb = np.array(to_rgb(colour))
     faces = np.clip(rgb[None, :] * shade[:, None], 0, 1)
     ax.add_collection3d(Poly3DCollection(tris, facecolors=faces, edgecolors="none"))
 
@@ -47,21 +43,11 @@ def _frame_axes(ax, points, title):
     ax.set_title(title)
 
 
-def save_png(fig, path: str | os.PathLike[str]) -> Path:
-    """Render a matplotlib figure to PNG atomically and close it."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    path = Path(path)
-    write_bytes_atomic(path, buf.getvalue())
-    return path
-
-
 def link_picture(result: CarveResult, k: int, path: str | os.PathLike[str]) -> Path:
     """Picture of carved link k in its link frame (mm)."""
     link = result.links[k]
     mesh = to_trimesh(link.solid)
-    fig = plt.figure(figsize=(5, 4.5))
+    fig = new_figure((5, 4.5))
     ax = fig.add_subplot(projection="3d")
     _draw(ax, mesh, _COLOURS[k])
     ax.view_init(elev=28, azim=-60)
@@ -84,7 +70,7 @@ def folded_pose(result: CarveResult) -> np.ndarray:
 def arm_picture(result: CarveResult, q, path: str | os.PathLike[str], title: str) -> Path:
     """Picture of the assembled arm at configuration q (rad), in the base frame (mm)."""
     frames = joint_frames(result.design, np.asarray(q, dtype=float))
-    fig = plt.figure(figsize=(7, 6))
+    fig = new_figure((7, 6))
     ax = fig.add_subplot(projection="3d")
     points = []
     for k, link in enumerate(result.links):

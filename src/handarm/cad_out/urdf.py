@@ -1,4 +1,4 @@
-"""URDF export of an arm design (DESIGN.md section 2).
+"""URDF export of an arm design (the fixed conventions of ``handarm.kinematics``).
 
 Joint k's origin is ``xyz="a_{k-1} 0 0"`` (joint 1 at the origin), joint 4 adds the 90 degree
 twist ``rpy="pi/2 0 0"``, every axis is ``0 0 1`` and a fixed tool frame sits at ``xyz="a6 0 0"``.

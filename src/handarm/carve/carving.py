@@ -29,7 +29,7 @@ _CONTACT_VOLUME = 1e-6  # mm^3: less than this is rounding, not contact
 _BORE_WALL = 1.0  # mm of wall around the axle bore that must survive carving
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class CarvedLink:
     """One carved link: the solid in its link frame (mm) and its blank."""
 
@@ -68,7 +68,7 @@ class JointReport:
         }
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class CarveResult:
     """Carved links l0..l6 and the joint reports of joints 1..6."""
 

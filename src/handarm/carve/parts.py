@@ -1,4 +1,4 @@
-"""Parametric link blanks (paper II-A.2, DESIGN.md section 5), in millimetres.
+"""Parametric link blanks (paper II-A.2), in millimetres.
 
 Every link is a union of named convex *parts*, each a prism along the axis of one of the
 link's joints: a polygon in that joint's frame (x, y) and a range of z along its axle.
@@ -27,7 +27,7 @@ MM = 1000.0  # metres -> millimetres
 _CIRCLE_SEGMENTS = 48
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class Part:
     """A convex prism: ``polygon`` (n, 2) in the plane of ``frame``, from z0 to z1 (mm)."""
 
@@ -64,7 +64,7 @@ class JointGeometry:
     bore_radius: float
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class LinkBlank:
     """The uncarved link k: its parts, holes and the transform between its two joint frames.
 

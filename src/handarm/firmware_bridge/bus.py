@@ -3,25 +3,24 @@
 Every operation first pings all six IDs and checks their model numbers; a missing servo, a
 wrong model (311 is the MX(2.0) firmware) or a timeout aborts before anything is written.
 Reads go servo by servo (the SDK's GroupBulkRead is broken under Protocol 1.0, see
-``shared/reference/mx64.md``); goal positions go in one SYNC_WRITE.
+the DynamixelSDK's Protocol 1.0 packet handler); goal positions go in one SYNC_WRITE.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from handarm.design import SERVO_MODELS, ArmDesign
+from handarm.design import ArmDesign
 from handarm.firmware_bridge.calibration import Calibration
 from handarm.firmware_bridge.export import angle_limit_registers
 from handarm.firmware_bridge.mx64 import (
     ADDR,
     MODEL_NUMBER_MX2,
-    MULTI_TURN_LIMIT,
     baud_register,
     from_unsigned16,
     to_unsigned16,
 )
-from handarm.kinematics import is_valid, link_crossings
+from handarm.kinematics import COLLISION_PAIRS, is_valid, link_crossings
 from handarm.transmission import (
     joint_from_motor,
     motor_from_joint,
@@ -58,12 +57,12 @@ class ServoBus:
         try:
             opened = self.port.openPort()
         except Exception as exc:  # pyserial raises SerialException or OSError
-            raise BusError(f"--port: cannot open {port}: {exc}") from None
+            raise BusError(f"port: cannot open {port}: {exc}") from None
         if not opened:
-            raise BusError(f"--port: cannot open {port}")
+            raise BusError(f"port: cannot open {port}")
         if not self.port.setBaudRate(baud):
             self.port.closePort()
-            raise BusError(f"--baud: the SDK cannot set {baud} bit/s on {port}")
+            raise BusError(f"baud: the SDK cannot set {baud} bit/s on {port}")
 
     def close(self) -> None:
         """Close the port."""
@@ -124,7 +123,7 @@ class ServoBus:
 
 def check_servos(bus: ServoBus, design: ArmDesign) -> list[int]:
     """Ping every servo of the design and check its model; BusError listing every problem."""
-    expected = SERVO_MODELS[design.servo_model]
+    expected = design.servo.model_number
     problems, models = [], []
     for joint, sid in enumerate(design.servo_ids, start=1):
         try:
@@ -159,7 +158,7 @@ def _settings(design: ArmDesign, calibration: Calibration | None) -> dict[int, d
             "return_delay_time": 0,
             "cw_angle_limit": cw,
             "ccw_angle_limit": ccw,
-            "max_torque": 1023,
+            "max_torque": design.servo.max_torque_register,
             "status_return_level": 2,
         }
     return out
@@ -205,7 +204,7 @@ def read_joint_angles(bus: ServoBus, design: ArmDesign, calibration: Calibration
     """Joint angles (rad) from the present positions through K^-1 and the calibration."""
     calibration.check_matches(design)
     check_servos(bus, design)
-    phi = motor_from_ticks(_present_ticks(bus, design), calibration.offsets)
+    phi = motor_from_ticks(design, _present_ticks(bus, design), calibration.offsets)
     return joint_from_motor(design, phi)
 
 
@@ -226,18 +225,17 @@ def goal_ticks(design: ArmDesign, calibration: Calibration, q) -> np.ndarray:
                 f"[{np.degrees(lo):.2f}, {np.degrees(hi):.2f}] deg; nothing was sent"
             )
     if not is_valid(design, q):
-        from handarm.kinematics import COLLISION_PAIRS
-
         pairs = [
             f"{a}-{b}"
             for (a, b), c in zip(COLLISION_PAIRS, link_crossings(design, q), strict=True)
             if c
         ]
         raise ValueError(f"q: links would cross ({', '.join(pairs)}); nothing was sent")
-    ticks = ticks_from_motor(motor_from_joint(design, q), calibration.offsets)
+    ticks = ticks_from_motor(design, motor_from_joint(design, q), calibration.offsets)
     registers = angle_limit_registers(design, calibration.offsets)
     for m, (mode, cw, ccw) in enumerate(registers):
-        lo, hi = (-MULTI_TURN_LIMIT, MULTI_TURN_LIMIT) if mode == "multi-turn" else (cw, ccw)
+        limit = design.servo.multi_turn_limit
+        lo, hi = (-limit, limit) if mode == "multi-turn" else (cw, ccw)
         if not lo <= ticks[m] <= hi:
             raise ValueError(
                 f"q: motor {m + 1} would need {ticks[m]} ticks, outside its "

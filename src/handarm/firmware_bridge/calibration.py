@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from handarm._io import write_text_atomic
-from handarm.design import SERVO_MODELS, ArmDesign
+from handarm.design import ArmDesign
 
 __all__ = ["Calibration", "SCHEMA"]
 
@@ -42,7 +42,7 @@ class Calibration:
         return cls(
             design.name,
             design.servo_model,
-            SERVO_MODELS[design.servo_model],
+            design.servo.model_number,
             design.servo_ids,
             readings,
             now,
@@ -55,10 +55,7 @@ class Calibration:
                 f"calibration: servo_ids {list(self.servo_ids)} do not match the design's "
                 f"{list(design.servo_ids)}"
             )
-        if (
-            self.servo_model != design.servo_model
-            or self.model_number != SERVO_MODELS[design.servo_model]
-        ):
+        if self.servo_model != design.servo_model or self.model_number != design.servo.model_number:
             raise ValueError(
                 f"calibration: recorded for {self.servo_model} (model {self.model_number}), "
                 f"the design has {design.servo_model}"

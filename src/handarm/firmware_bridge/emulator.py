@@ -17,7 +17,7 @@ import threading
 import tty
 from collections.abc import Iterable, Mapping
 
-from handarm.firmware_bridge.mx64 import ADDR, MODEL_NUMBER
+from handarm.firmware_bridge.mx64 import ADDR, MODEL_NUMBER, MULTI_TURN_LIMIT
 
 __all__ = ["EmulatedServo", "EmulatedBus"]
 
@@ -109,7 +109,7 @@ class EmulatedServo:
             raw = int.from_bytes(data[goal_addr - addr : goal_addr - addr + 2], "little")
             if self.multi_turn:
                 signed = raw - 0x10000 if raw > 0x7FFF else raw
-                if abs(signed) > 28672:
+                if abs(signed) > MULTI_TURN_LIMIT:
                     return ERR_ANGLE
             elif not self.get("cw_angle_limit") <= raw <= self.get("ccw_angle_limit"):
                 return ERR_ANGLE

@@ -17,11 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from handarm._io import write_text_atomic
-from handarm.design import SERVO_MODELS, ArmDesign
+from handarm.design import ArmDesign
 from handarm.firmware_bridge.calibration import Calibration
-from handarm.firmware_bridge.mx64 import TICKS_PER_REV, baud_register
+from handarm.firmware_bridge.mx64 import baud_register
 from handarm.transmission import (
-    TICKS_PER_RADIAN,
     coupling_matrix,
     joint_effort_limits,
     motor_ranges,
@@ -45,19 +44,21 @@ def angle_limit_registers(design: ArmDesign, offsets=None, lower=None, upper=Non
     Without ``offsets`` the joint-mode window is centred on tick 2048: ``assembly_ticks``
     says where to put each horn before tensioning so that it is.
     """
+    servo = design.servo
+    tpr, mid = servo.ticks_per_radian, servo.ticks_per_rev // 2
     out = []
     for r, m in zip(motor_ranges(design, lower, upper), range(6), strict=True):
         if r.mode == "multi-turn":
             out.append(("multi-turn", 4095, 4095))
             continue
-        zero = 2048 - (r.lo + r.hi) / 2 * TICKS_PER_RADIAN if offsets is None else offsets[m]
-        cw = math.floor(zero + r.lo * TICKS_PER_RADIAN)
-        ccw = math.ceil(zero + r.hi * TICKS_PER_RADIAN)
-        if cw < 0 or ccw > TICKS_PER_REV - 1:
+        zero = mid - (r.lo + r.hi) / 2 * tpr if offsets is None else offsets[m]
+        cw = math.floor(zero + r.lo * tpr)
+        ccw = math.ceil(zero + r.hi * tpr)
+        if cw < 0 or ccw > servo.joint_mode_max:
             raise ValueError(
                 f"calibration: motor {m + 1}'s zero reading {zero:.0f} leaves its travel "
-                f"({cw}..{ccw}) outside joint mode's 0..4095; re-seat the horn at "
-                f"{2048 - (r.lo + r.hi) / 2 * TICKS_PER_RADIAN:.0f} ticks at the zero pose"
+                f"({cw}..{ccw}) outside joint mode's 0..{servo.joint_mode_max}; re-seat the "
+                f"horn at {mid - (r.lo + r.hi) / 2 * tpr:.0f} ticks at the zero pose"
             )
         out.append(("joint", cw, ccw))
     return out
@@ -108,22 +109,24 @@ def controller_config(
                 "id": design.servo_ids[m],
                 "joint": m + 1,
                 "model": design.servo_model,
-                "model_number": SERVO_MODELS[design.servo_model],
+                "model_number": design.servo.model_number,
                 "protocol": 1.0,
                 "baud_rate": design.baud_rate,
                 "baud_register": baud_register(design.baud_rate),
                 "mode": mode,
                 "cw_angle_limit": cw,
                 "ccw_angle_limit": ccw,
-                "max_torque": round(1023 * max_torque_fraction),
+                "max_torque": round(design.servo.max_torque_register * max_torque_fraction),
                 "travel_rad": [r.lo, r.hi],
-                "assembly_ticks": round(2048 - (r.lo + r.hi) / 2 * TICKS_PER_RADIAN),
+                "assembly_ticks": round(
+                    design.servo.ticks_per_rev // 2 - (r.lo + r.hi) / 2 * r.ticks_per_radian
+                ),
             }
         )
     return {
         "schema": SCHEMA,
         "design": design.name,
-        "ticks_per_rad": TICKS_PER_RADIAN,
+        "ticks_per_rad": design.servo.ticks_per_radian,
         "servos": servos,
         "coupling": {
             "K": k.tolist(),

@@ -1,13 +1,13 @@
 """Dynamixel MX-64T/AT, Protocol 1.0 firmware (model number 310): control table and units.
 
-Facts from ``shared/reference/mx64.md`` (ROBOTIS e-manual, DynamixelSDK). Positions are
+Facts from the ROBOTIS e-manual (MX-64 page) and the DynamixelSDK sources. Positions are
 4096 ticks per turn; joint mode spans one turn (0..4095, bounded by the CW/CCW angle
 limits), multi-turn mode (CW = CCW = 4095) spans -28672..28672, two's complement on the bus.
 """
 
 from __future__ import annotations
 
-import math
+from handarm.servo import SERVOS
 
 __all__ = [
     "MODEL_NUMBER",
@@ -17,16 +17,16 @@ __all__ = [
     "ADDR",
     "EEPROM_END",
     "BAUD_VALUES",
-    "ticks_per_radian",
     "to_unsigned16",
     "from_unsigned16",
     "baud_register",
 ]
 
-MODEL_NUMBER = 310  # MX-64 with Protocol 1.0 firmware
+_SPEC = SERVOS["MX-64T"]  # the numbers live in the servo specification
+MODEL_NUMBER = _SPEC.model_number  # MX-64 with Protocol 1.0 firmware
 MODEL_NUMBER_MX2 = 311  # MX-64 with MX(2.0) firmware: a different control table
-TICKS_PER_REV = 4096
-MULTI_TURN_LIMIT = 28672  # |Goal Position| in multi-turn mode (7 turns)
+TICKS_PER_REV = _SPEC.ticks_per_rev
+MULTI_TURN_LIMIT = _SPEC.multi_turn_limit  # |Goal Position| in multi-turn mode (7 turns)
 
 #: Control-table addresses (Protocol 1.0 firmware), with their sizes in bytes.
 ADDR = {
@@ -76,11 +76,6 @@ BAUD_VALUES = {
     2_500_000: 251,
     3_000_000: 252,
 }
-
-
-def ticks_per_radian() -> float:
-    """Encoder ticks per radian of motor rotation."""
-    return TICKS_PER_REV / (2.0 * math.pi)
 
 
 def to_unsigned16(value: int) -> int:

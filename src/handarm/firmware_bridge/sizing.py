@@ -1,4 +1,4 @@
-"""Payload and pulley sizing with cvxpy (DESIGN.md section 6).
+"""Payload and pulley sizing with cvxpy (the transmission's statics).
 
 Static gravity torques are linear in the gravity vector g and in the payload m at the tool:
 tau_joint = (A + m B) g, with A from the link masses, B from the tool point, for each
@@ -23,9 +23,11 @@ import math
 import cvxpy as cp
 import numpy as np
 
+from handarm.carve import carve
+from handarm.carve.properties import to_trimesh
 from handarm.design import ArmDesign
 from handarm.kinematics import forward, is_valid, joint_frames
-from handarm.transmission import NO_LOAD_SPEED, STALL_TORQUE, coupling_matrix
+from handarm.transmission import coupling_matrix
 
 __all__ = [
     "GRAVITY",
@@ -37,12 +39,14 @@ __all__ = [
     "max_payload",
     "size_pulleys",
     "PulleySizing",
+    "carved_link_masses",
+    "sizing_report",
 ]
 
 GRAVITY = 9.81
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class LinkMasses:
     """Masses (kg) of links l1..l6 and their centres of mass in their link frames (m)."""
 
@@ -62,8 +66,6 @@ def design_link_masses(design: ArmDesign) -> LinkMasses:
 
 def carved_link_masses(carve_result) -> LinkMasses:
     """Masses and centres of mass of the carved links l1..l6 (from their meshes)."""
-    from handarm.cad_out.meshes import to_trimesh
-
     masses, coms = [], []
     density = carve_result.design.density
     for link in carve_result.links[1:]:
@@ -147,7 +149,7 @@ def max_payload(
     links : LinkMasses, optional
         Default: ``design_link_masses``.
     safety : float
-        Fraction of the 6.0 N m stall torque a motor may use (0 < s <= 1).
+        Fraction of the servo's stall torque a motor may use (0 < s <= 1).
     directions : array-like, shape (d, 3), optional
         Gravity directions; default every direction (a second-order cone per motor).
 
@@ -164,7 +166,7 @@ def max_payload(
     m_inv_t = np.linalg.inv(coupling_matrix(design)).T
     ma = np.einsum("kj,njx->nkx", m_inv_t, a) * GRAVITY
     mb = np.einsum("kj,njx->nkx", m_inv_t, b) * GRAVITY
-    limit = safety * STALL_TORQUE
+    limit = safety * design.servo.stall_torque
     m = cp.Variable(nonneg=True)
     cons = []
     if directions is None:
@@ -206,7 +208,7 @@ def max_payload(
     return payload, info
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class PulleySizing:
     """Best joint pulley radii (m) and the payload (kg) they allow."""
 
@@ -245,9 +247,9 @@ def size_pulleys(
     signs = np.array(design.routing_signs, dtype=float)
     s_inv_t = np.linalg.inv(signs).T
     rho = design.motor_pulley_radius
-    limit = safety * STALL_TORQUE
+    limit = safety * design.servo.stall_torque
     # joint j alone moves motor k at |S_kj| r_j / rho times its speed: r_j <= omega rho / ...
-    speed_w = min_speed * np.abs(signs).max(axis=0) / (NO_LOAD_SPEED * rho)
+    speed_w = min_speed * np.abs(signs).max(axis=0) / (design.servo.no_load_speed * rho)
     w_lo = np.maximum(1.0 / r_hi, speed_w)
     w_hi = np.full(6, 1.0 / r_lo)
     if np.any(w_lo > w_hi):
@@ -285,3 +287,54 @@ def size_pulleys(
         else:
             hi = mid
     return PulleySizing(1.0 / np.asarray(best_w), lo, min_speed, radius_range)
+
+
+def sizing_report(
+    design: ArmDesign,
+    *,
+    safety: float = 0.5,
+    radius_range: tuple[float, float] = (0.004, 0.020),
+    min_speed: float = math.radians(180.0),
+    carve_links: bool = True,
+) -> dict:
+    """The payload and pulley sizing of a design as a JSON-ready dict (``bridge size``).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    safety : float
+        Fraction of the servo's stall torque a motor may use (0 < s <= 1).
+    radius_range : (float, float)
+        Manufacturable joint pulley radii (m).
+    min_speed : float
+        Slowest acceptable speed of each joint turning alone (rad/s).
+    carve_links : bool
+        Take link masses from the carved meshes (coarse 2 degree carving); otherwise from
+        solid beams of the design's cross-section.
+
+    Returns
+    -------
+    dict
+        ``payload_kg`` (any gravity direction), ``binding_motor``, ``configurations``,
+        ``link_masses_kg`` and their source, ``sized_joint_pulley_radii_mm`` and
+        ``sized_payload_kg``, ``torque_limit_Nm``.
+    """
+    links = design_link_masses(design)
+    if carve_links:
+        links = carved_link_masses(carve(design, 2.0))
+    payload, info = max_payload(design, links=links, safety=safety)
+    sized = size_pulleys(
+        design, links=links, safety=safety, radius_range=radius_range, min_speed=min_speed
+    )
+    return {
+        "torque_limit_Nm": info["torque_limit_Nm"],
+        "link_masses_kg": links.masses.tolist(),
+        "link_masses_from": links.source,
+        "configurations": info["configurations"],
+        "payload_kg": payload,
+        "binding_motor": info.get("binding_motor"),
+        "sized_joint_pulley_radii_mm": (sized.radii * 1000).tolist(),
+        "sized_payload_kg": sized.payload,
+        "sizing_gravity": "26 gravity directions",
+        "min_joint_speed_deg_s": math.degrees(min_speed),
+    }

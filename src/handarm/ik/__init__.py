@@ -1,22 +1,30 @@
 """Analytical 5-DoF inverse kinematics (paper section III): every solution range, exact.
 
-``solve`` answers one target with every solution range; ``solve_batch`` answers N targets in
-parallel; ``configuration_at`` gives the joint angles at any point of a range.
+``solve`` answers one target with every solution range (or the closest reachable pose);
+``solve_batch`` answers N targets in parallel; ``count_solutions`` counts without storing;
+``configuration_at`` gives the joint angles at any point of a range.
+
+Layers point one way: the numba kernels (``_solve`` and below), the exact core
+(``exact``), graceful degradation on top of it (``degrade``), the public ``solve``
+(``api``) on top of both.
 """
 
-from handarm.ik.solver import (
-    MAX_SOLUTIONS,
-    BatchResult,
-    IKResult,
+from handarm.ik.api import solve
+from handarm.ik.exact import (
     branch_of,
     configuration_at,
     configurations_along,
     count_solutions,
-    format_result,
-    nearest_solution,
-    solve,
     solve_batch,
     solve_batch_iter,
+    solve_exact,
+)
+from handarm.ik.results import (
+    MAX_SOLUTIONS,
+    BatchResult,
+    IKResult,
+    format_result,
+    nearest_solution,
 )
 
 __all__ = [
@@ -32,4 +40,5 @@ __all__ = [
     "solve",
     "solve_batch",
     "solve_batch_iter",
+    "solve_exact",
 ]

@@ -1,4 +1,4 @@
-"""Graceful degradation (paper III-D; DESIGN.md section 3).
+"""Graceful degradation (paper III-D).
 
 When a target (p, e) has no 5-DoF solution the closest reachable pose is returned:
 
@@ -25,7 +25,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from handarm.design import ArmDesign
-from handarm.ik import solver as S
+from handarm.ik import exact as S
+from handarm.ik.results import IKResult
 from handarm.kinematics import forward, is_valid
 
 __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction"]
@@ -163,11 +164,11 @@ def _pitch_yaw(e: np.ndarray) -> tuple[float, float]:
 JOINT_MOTION_WEIGHT = 0.5
 
 
-def _choose(design, p, e, candidates, dof, current) -> S.IKResult:
+def _choose(design, p, e, candidates, dof, current) -> IKResult:
     """The best relaxed direction among candidates, as an IKResult at level ``dof``."""
     best, best_score = None, math.inf
     for v in candidates:
-        r = S.solve(design, p, v, current, degrade=False)
+        r = S.solve_exact(design, p, v, current)
         if r.count == 0:
             continue
         err = float(_angle(v, e))
@@ -184,7 +185,7 @@ def _choose(design, p, e, candidates, dof, current) -> S.IKResult:
     return best
 
 
-def degrade_target(design: ArmDesign, p: np.ndarray, e: np.ndarray, current=None) -> S.IKResult:
+def degrade_target(design: ArmDesign, p: np.ndarray, e: np.ndarray, current=None) -> IKResult:
     """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
     pitch, yaw = _pitch_yaw(e)
 
@@ -230,7 +231,7 @@ def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
     return q, forward(design, q)[0]
 
 
-def _two_dof(design: ArmDesign, p, e, current) -> S.IKResult:
+def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can."""
     seeds = []
     # the stretched arm aimed at p: only joints 1 and 4 move (paper III-D)
@@ -268,7 +269,7 @@ def _two_dof(design: ArmDesign, p, e, current) -> S.IKResult:
     aim = p - p_reached
     if np.linalg.norm(aim) > 1e-12:
         aim = aim / np.linalg.norm(aim)
-        r = S.solve(design, p_reached, aim, best_q if current is None else current, degrade=False)
+        r = S.solve_exact(design, p_reached, aim, best_q if current is None else current)
         if r.count:
             return dataclasses.replace(
                 r,
@@ -278,7 +279,7 @@ def _two_dof(design: ArmDesign, p, e, current) -> S.IKResult:
                 follow=r.follow if current is not None else None,
             )
     branch, u = S.branch_of(design, best_q)
-    return S.IKResult(
+    return IKResult(
         best_q[None, :],
         branch[None, :],
         np.array([[u, u]]),

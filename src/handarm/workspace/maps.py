@@ -74,7 +74,7 @@ def symmetries(design: ArmDesign) -> tuple[bool, bool]:
     return bool(sym[:3].all()), bool(sym[3:].all())
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class ReachabilityMap:
     """A reachability map on a cubic grid of voxels (SI units).
 

@@ -5,14 +5,10 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from handarm.cad_out.pictures import save_png  # noqa: E402
-from handarm.workspace.maps import ReachabilityMap  # noqa: E402
+from handarm._figures import new_figure, save_png
+from handarm.workspace.maps import ReachabilityMap
 
 __all__ = ["slice_picture", "pareto_picture", "sensitivity_picture"]
 
@@ -30,7 +26,8 @@ def slice_picture(
     else:
         raise ValueError(f"plane: expected 'xy' or 'xz', got {plane!r}")
     h = wmap.voxel * 500.0
-    fig, ax = plt.subplots(figsize=(6, 5))
+    fig = new_figure((6, 5))
+    ax = fig.add_subplot()
     masked = np.ma.masked_where(data <= 0, data)
     im = ax.imshow(
         masked,
@@ -53,7 +50,8 @@ def slice_picture(
 
 def pareto_picture(rows, path, x="mass_kg", y="workspace_score") -> Path:
     """Every design as a point (workspace score against link mass), the Pareto front joined."""
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig = new_figure((6.5, 4.5))
+    ax = fig.add_subplot()
     xs = np.array([r[x] for r in rows]) * (1000.0 if x == "mass_kg" else 1.0)
     ys = np.array([r[y] for r in rows])
     front = np.array([r["pareto"] for r in rows], dtype=bool)
@@ -74,7 +72,8 @@ def sensitivity_picture(sensitivity: dict, path) -> Path:
     """Bar chart: volume lost per degree of each joint's limit."""
     rows = sensitivity["joints"]
     joints = [r["joint"] for r in rows]
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig = new_figure((6, 4))
+    ax = fig.add_subplot()
     w = 0.38
     x = np.arange(len(joints))
     ax.bar(x - w / 2, [r["reachable_m3_per_deg"] * 1e6 for r in rows], w, label="reachable")

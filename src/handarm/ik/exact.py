@@ -1,199 +1,40 @@
-"""The analytical 5-DoF IK (paper section III; DESIGN.md sections 3-4).
+"""The exact 5-DoF IK core (paper section III): every solution range, no degradation.
 
 A target is a tool point ``p`` and a tool direction ``e``. Link l3 lies on the line
 L = {F + u d}, F = (p_x, p_y, 0), d = +-h/|h| with h the horizontal part of e; u is the
 coordinate of joint 4 along L. For each branch (sign of d, elbow of B, elbow of E) the
-valid u form a union of intervals, found exactly (see ``_kernels``); every interval is a
-*solution range* and its midpoint the representative solution.
+valid u form a union of intervals, found exactly (the numba kernels ``_solve``,
+``_classify``, ``_events``); every interval is a *solution range* and its midpoint the
+representative solution.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
 from handarm._checks import check_array, check_design, check_joints
 from handarm.design import ArmDesign
-from handarm.ik import _kernels as K
+from handarm.ik import _solve as K
+from handarm.ik._common import VERTICAL_EPS, wrap
+from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult, nearest_solution
+from handarm.kinematics import forward, is_valid, joint_positions
 
 __all__ = [
-    "IKResult",
-    "BatchResult",
-    "solve",
+    "solve_exact",
     "solve_batch",
     "solve_batch_iter",
+    "count_solutions",
     "branch_of",
-    "format_result",
     "configuration_at",
     "configurations_along",
-    "nearest_solution",
-    "MAX_SOLUTIONS",
+    "follow_configuration",
+    "check_target",
 ]
 
-#: Rows of a batch result (DESIGN.md: up to ranges x 2 x 2 x 2 = 24 in the paper's example).
-MAX_SOLUTIONS = 24
 _SINGLE_CAPACITY = 256
 _BATCH_CHUNK = 65536
-
-
-@dataclasses.dataclass(frozen=True)
-class IKResult:
-    """Every solution range of one target.
-
-    Attributes
-    ----------
-    solutions : ndarray, shape (k, 6)
-        Joint angles (rad) at the midpoint of each range; sorted by distance to ``current``
-        when it was given, else by branch and u.
-    branches : ndarray of int, shape (k, 3)
-        (sign of d, elbow of B, elbow of E), each +1/-1.
-    intervals : ndarray, shape (k, 2)
-        [u_lo, u_hi] of joint 4 along L for each range (m).
-    reached_dof : int
-        5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``).
-    position_error, direction_error : float
-        Distance (m) and angle (rad) between the target and the pose of ``solutions``.
-    vertical : bool
-        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``: the azimuth
-        with a solution nearest to that of ``current`` (l3's direction), or without
-        ``current``, nearest to the direction from joint 1 towards the target (0.5 degree
-        steps).
-    azimuth : float
-        Direction of L (rad from +x) for d = +1.
-    achieved_position, achieved_direction : ndarray, shape (3,)
-        The pose the solutions reach (the target itself when reached_dof == 5).
-    follow : ndarray, shape (6,) or None
-        With ``current``: the configuration inside the ranges nearest to it (u of each range
-        clamped towards the present one). It moves little when the target moves little,
-        which makes it the output to send in a handheld control loop. None without
-        ``current`` or without solutions.
-    """
-
-    solutions: np.ndarray
-    branches: np.ndarray
-    intervals: np.ndarray
-    reached_dof: int = 5
-    position_error: float = 0.0
-    direction_error: float = 0.0
-    vertical: bool = False
-    azimuth: float = 0.0
-    achieved_position: np.ndarray | None = None
-    achieved_direction: np.ndarray | None = None
-    follow: np.ndarray | None = None
-
-    @property
-    def count(self) -> int:
-        """Number of solution ranges."""
-        return len(self.solutions)
-
-    def __len__(self) -> int:
-        return self.count
-
-    def to_dict(self) -> dict:
-        """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which)."""
-        return {
-            "reached_dof": int(self.reached_dof),
-            "position_error_m": float(self.position_error),
-            "direction_error_deg": math.degrees(self.direction_error),
-            "vertical": bool(self.vertical),
-            "azimuth_deg": math.degrees(self.azimuth),
-            "achieved_position_m": _list(self.achieved_position),
-            "achieved_direction": _list(self.achieved_direction),
-            "solutions": [
-                {
-                    "q_deg": np.degrees(q).tolist(),
-                    "branch": [int(b) for b in br],
-                    "u_range_m": iv.tolist(),
-                }
-                for q, br, iv in zip(self.solutions, self.branches, self.intervals, strict=True)
-            ],
-            "follow_deg": None if self.follow is None else np.degrees(self.follow).tolist(),
-        }
-
-    def nearest(self, current) -> np.ndarray:
-        """The solution closest to ``current`` (Euclidean in joint space), shape (6,)."""
-        if self.count == 0:
-            raise ValueError("no solution to choose from")
-        return self.solutions[nearest_solution(self.solutions, current)]
-
-
-@dataclasses.dataclass(frozen=True)
-class BatchResult:
-    """Solutions of N targets, padded to ``MAX_SOLUTIONS`` rows.
-
-    Attributes
-    ----------
-    counts : ndarray of int, shape (N,)
-        Ranges stored per target (rows past it are NaN in ``solutions`` and ``intervals``,
-        0 in ``branches``).
-    solutions : ndarray, shape (N, 24, 6)
-    branches : ndarray of int8, shape (N, 24, 3)
-    intervals : ndarray, shape (N, 24, 2)
-    truncated : ndarray of bool, shape (N,)
-        More than 24 ranges existed; the first 24 (by branch and u) are stored.
-    vertical : ndarray of bool, shape (N,)
-    azimuth : ndarray, shape (N,)
-        Direction of L for d = +1 (for vertical rows, the azimuth used; see IKResult).
-    """
-
-    counts: np.ndarray
-    solutions: np.ndarray
-    branches: np.ndarray
-    intervals: np.ndarray
-    truncated: np.ndarray
-    vertical: np.ndarray
-    azimuth: np.ndarray
-
-
-def _list(x):
-    return None if x is None else np.asarray(x, dtype=float).tolist()
-
-
-def format_result(result: IKResult) -> str:
-    """Human-readable table of an IKResult: joint angles in degrees, ranges in mm."""
-    lines = []
-    level = {
-        5: "5 DoF (exact)",
-        4: "4 DoF (pitch or yaw relaxed)",
-        3: "3 DoF (position only)",
-        2: "2 DoF (out of reach: nearest point, pointing at the target)",
-    }
-    lines.append(f"reached: {level.get(result.reached_dof, result.reached_dof)}")
-    if result.reached_dof < 5:
-        lines.append(
-            f"position error {result.position_error * 1e3:.3f} mm, "
-            f"direction error {math.degrees(result.direction_error):.3f} deg"
-        )
-    if result.vertical:
-        lines.append(
-            f"vertical direction: L taken at azimuth {math.degrees(result.azimuth):.2f} deg"
-        )
-    lines.append(f"{result.count} solution range(s)")
-    if result.count:
-        head = "  #   " + "".join(f"{'q' + str(k):>9}" for k in range(1, 7))
-        lines.append(head + "   branch (d,B,E)   u range (mm)")
-        for i, (q, br, iv) in enumerate(
-            zip(result.solutions, result.branches, result.intervals, strict=True)
-        ):
-            angles = "".join(f"{v:9.2f}" for v in np.degrees(q))
-            signs = " ".join(f"{int(b):+d}" for b in br)
-            lines.append(
-                f"{i + 1:>3}   {angles}   {signs:>14}   [{iv[0] * 1e3:.2f}, {iv[1] * 1e3:.2f}]"
-            )
-    if result.follow is not None:
-        lines.append(
-            "follow (nearest to current): "
-            + " ".join(f"{v:.2f}" for v in np.degrees(result.follow))
-        )
-    return "\n".join(lines) + "\n"
-
-
-def nearest_solution(solutions: np.ndarray, current) -> int:
-    """Index of the row of ``solutions`` (k, 6) closest to ``current`` (6,)."""
-    current = check_joints(current, "current")
-    return int(np.argmin(np.sum((solutions - current) ** 2, axis=-1)))
 
 
 def branch_of(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
@@ -212,8 +53,6 @@ def branch_of(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
     u : ndarray, shape (...,)
         Coordinate of joint 4 along L from F = (p_x, p_y, 0) (m).
     """
-    from handarm.kinematics import forward, joint_positions
-
     check_design(design)
     q = check_joints(q)
     p, e = forward(design, q)
@@ -229,7 +68,8 @@ def branch_of(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
     return branch, u
 
 
-def _check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray, np.ndarray]:
+def check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray, np.ndarray]:
+    """Checked float arrays (..., 3) of points and unit directions; ValueError naming them."""
     p = check_array(p, p_name, 3)
     e = check_array(e, e_name, 3)
     norm = np.linalg.norm(e, axis=-1)
@@ -243,10 +83,10 @@ def _check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarra
 def _azimuth(p: np.ndarray, e: np.ndarray, current: np.ndarray | None) -> tuple[bool, float]:
     """Whether e is vertical, and the azimuth of d = +1 (fixed rule when vertical)."""
     h = math.hypot(e[0], e[1])
-    if h >= K.VERTICAL_EPS:
+    if h >= VERTICAL_EPS:
         return False, math.atan2(e[1], e[0])
     if current is not None:
-        return True, float(K.wrap(current[0] + current[1] + current[2]))
+        return True, float(wrap(current[0] + current[1] + current[2]))
     return True, _default_vertical_azimuth(p)
 
 
@@ -264,36 +104,10 @@ def _order(solutions, branches, intervals, current):
     return solutions[idx], branches[idx], intervals[idx]
 
 
-def solve(
-    design: ArmDesign,
-    p,
-    e,
-    current=None,
-    *,
-    degrade: bool = True,
-) -> IKResult:
-    """Every solution range of the target (p, e).
-
-    Parameters
-    ----------
-    design : ArmDesign
-    p : array-like, shape (3,)
-        Tool point (m).
-    e : array-like, shape (3,)
-        Tool direction; normalised here (a zero vector is an error).
-    current : array-like, shape (6,), optional
-        The arm's present configuration: solutions are sorted by distance to it, a
-        vertical ``e`` uses its azimuth, and degraded answers stay near it.
-    degrade : bool
-        When no 5-DoF solution exists, return the closest reachable pose (4, 3 or 2 DoF)
-        instead of an empty result.
-
-    Returns
-    -------
-    IKResult
-    """
+def check_inputs(design, p, e, current):
+    """Checked (p, e, current) of one target; ValueError naming the argument."""
     check_design(design)
-    p, e = _check_target(p, e)
+    p, e = check_target(p, e)
     if p.shape != (3,):
         raise ValueError(f"p: expected shape (3,), got {p.shape}")
     if e.shape != (3,):
@@ -302,17 +116,27 @@ def solve(
         current = check_joints(current, "current")
         if current.shape != (6,):
             raise ValueError(f"current: expected shape (6,), got {current.shape}")
+    return p, e, current
+
+
+def solve_exact(design: ArmDesign, p, e, current=None) -> IKResult:
+    """Every 5-DoF solution range of the target (p, e); empty when there is none.
+
+    Parameters and result as ``handarm.ik.solve`` with ``degrade=False``.
+    """
+    p, e, current = check_inputs(design, p, e, current)
+    return _exact(design, p, e, current)
+
+
+def _exact(design: ArmDesign, p: np.ndarray, e: np.ndarray, current) -> IKResult:
+    """solve_exact on checked inputs."""
     vertical, azimuth = _azimuth(p, e, current)
     sols, br, iv, azimuth = _solve_raw(design, p, e, azimuth)
-    if len(sols) or not degrade:
-        sols, br, iv = _order(sols, br, iv, current)
-        follow = None
-        if current is not None and len(sols):
-            follow = follow_configuration(design, p, e, sols, br, iv, current, azimuth)
-        return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy(), follow)
-    from handarm.ik.degrade import degrade_target
-
-    return degrade_target(design, p, e, current)
+    sols, br, iv = _order(sols, br, iv, current)
+    follow = None
+    if current is not None and len(sols):
+        follow = follow_configuration(design, p, e, sols, br, iv, current, azimuth)
+    return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy(), follow)
 
 
 def follow_configuration(
@@ -324,8 +148,6 @@ def follow_configuration(
     the range (a hair inside its ends); the nearest of those configurations and of the
     range midpoints ``solutions`` in joint space wins.
     """
-    from handarm.kinematics import is_valid, joint_positions
-
     j4 = joint_positions(design, current)[4, :2]
     best = solutions[nearest_solution(solutions, current)]
     best_dist = float(np.sum((best - current) ** 2))
@@ -359,7 +181,7 @@ def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
 def _check_batch(design: ArmDesign, P, E):
     """Checked (N, 3) targets and the azimuth each uses if its direction is vertical."""
     check_design(design)
-    P, E = _check_target(P, E, "P", "E")
+    P, E = check_target(P, E, "P", "E")
     if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
         raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
     psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
@@ -391,7 +213,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     br = np.empty((n, MAX_SOLUTIONS, 3), np.int8)
     iv = np.empty((n, MAX_SOLUTIONS, 2))
     h = np.hypot(E[:, 0], E[:, 1])
-    vertical = h < K.VERTICAL_EPS
+    vertical = h < VERTICAL_EPS
     a, lo, hi = design.lengths, design.lower, design.upper
     used = np.empty(n)
     for s in range(0, n, chunk):
@@ -486,7 +308,7 @@ def configurations_along(
         Both chains reach that u on this branch (validity is not checked).
     """
     check_design(design)
-    p, e = _check_target(p, e)
+    p, e = check_target(p, e)
     br = _check_branch(branch)
     u = np.ascontiguousarray(check_array(np.atleast_1d(u)[:, None], "u", 1)[:, 0])
     dx, dy = _line_direction(p, e, br[0], azimuth)
@@ -506,7 +328,7 @@ def _check_branch(branch) -> np.ndarray:
 def _line_direction(p, e, sign, azimuth) -> tuple[float, float]:
     """D for a branch sign, computed exactly as the kernel does (h / |h|, or the azimuth)."""
     h = math.hypot(e[0], e[1])
-    if h >= K.VERTICAL_EPS:
+    if h >= VERTICAL_EPS:
         return sign * e[0] / h, sign * e[1] / h
     psi = _default_vertical_azimuth(p) if azimuth is None else float(azimuth)
     return sign * math.cos(psi), sign * math.sin(psi)
@@ -529,7 +351,7 @@ def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None)
         The azimuth of d = +1 for a vertical ``e`` (``IKResult.azimuth``).
     """
     check_design(design)
-    p, e = _check_target(p, e)
+    p, e = check_target(p, e)
     br = _check_branch(branch)
     if not math.isfinite(u):
         raise ValueError(f"u: must be finite, got {u}")

@@ -1,0 +1,7 @@
+"""``python -m handarm.cli``: the same as the ``handarm`` command."""
+
+import sys
+
+from handarm.cli import main
+
+sys.exit(main())

@@ -1,0 +1,87 @@
+"""``handarm build``, ``handarm carve`` and ``handarm urdf``: the design's files."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from handarm.cli._common import add_design_arg, add_quiet, load_design
+
+
+def cmd_build(args: argparse.Namespace) -> int:
+    """Everything for one design."""
+    from handarm.pipeline import build
+
+    result = build(load_design(args.design), args.out, progress=not args.quiet)
+    for path in result.files:
+        print(path)
+    return 0
+
+
+def cmd_carve(args: argparse.Namespace) -> int:
+    """Carve the links and print the limits they allow."""
+    from handarm.pipeline import carve_design
+
+    carving, files = carve_design(
+        load_design(args.design), args.out, resolution_deg=args.resolution, progress=not args.quiet
+    )
+    print("joint  requested (deg)     achieved (deg)      stopped by (upper side)")
+    for j in carving.joints:
+        req = [math.degrees(v) for v in j.requested]
+        ach = [math.degrees(v) for v in j.achieved]
+        print(
+            f"{j.joint:>5}  {req[0]:7.2f} {req[1]:7.2f}     {ach[0]:7.2f} {ach[1]:7.2f}     "
+            f"{j.stopped_by[1]}"
+        )
+    mass = sum(link.solid.volume() for link in carving.links) * 1e-9 * carving.design.density
+    print(f"total link mass {mass * 1e3:.1f} g")
+    print(f"wrote {len(files)} files into {args.out}")
+    return 0
+
+
+def cmd_urdf(args: argparse.Namespace) -> int:
+    """Write the design as URDF."""
+    from handarm.cad_out.urdf import write_urdf
+
+    print(write_urdf(load_design(args.design), args.out))
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommands to the ``handarm`` parser."""
+    p = sub.add_parser(
+        "build",
+        help="everything for one design (the main job)",
+        description="Everything for one design: design TOML, summary, carved link meshes, "
+        "3MF plate, link properties, pictures, URDF, servo-controller files and the "
+        "workspace map.",
+    )
+    add_design_arg(p)
+    p.add_argument("--out", default="build", help="output folder (default: build)")
+    add_quiet(p)
+    p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser(
+        "carve",
+        help="carve printable links and measure their joint limits",
+        description="Carve the links: STL per link, a 3MF plate, properties, pictures, "
+        "URDF with meshes; prints the joint limits the carved links allow.",
+    )
+    add_design_arg(p)
+    p.add_argument("--out", default="build/carve", help="output folder (default: build/carve)")
+    p.add_argument(
+        "--resolution",
+        type=float,
+        default=1.0,
+        metavar="DEG",
+        help="largest angle between swept poses, degrees (default 1)",
+    )
+    add_quiet(p)
+    p.set_defaults(func=cmd_carve)
+
+    p = sub.add_parser(
+        "urdf", help="write the design as URDF", description="Write the design as URDF."
+    )
+    add_design_arg(p)
+    p.add_argument("--out", required=True, metavar="FILE", help="URDF file to write")
+    p.set_defaults(func=cmd_urdf)

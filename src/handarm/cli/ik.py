@@ -1,0 +1,62 @@
+"""``handarm ik``: every solution of one target."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from handarm.cli._common import load_design, option_error
+
+_OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current"}
+
+
+def cmd_ik(args: argparse.Namespace) -> int:
+    """Every inverse-kinematics solution of one target (angles in degrees)."""
+    from handarm import ik
+
+    design = load_design(args.design)
+    current = None if args.current is None else np.radians(args.current)
+    try:
+        result = ik.solve(design, args.pos, args.dir, current=current, degrade=not args.exact)
+    except ValueError as exc:
+        raise option_error(exc, _OPTIONS) from None
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(ik.format_result(result), end="")
+    return 0 if result.count else 1
+
+
+def register(sub) -> None:
+    """Add the subcommand to the ``handarm`` parser."""
+    p = sub.add_parser(
+        "ik",
+        help="solve the inverse kinematics of one target",
+        description="Every inverse-kinematics solution of one target (angles in degrees). "
+        "Exit status 1 when there is no solution at all.",
+    )
+    p.add_argument(
+        "--pos",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("X", "Y", "Z"),
+        help="tool point in metres, base frame",
+    )
+    p.add_argument(
+        "--dir",
+        nargs=3,
+        type=float,
+        required=True,
+        metavar=("DX", "DY", "DZ"),
+        help="tool direction (any length but zero)",
+    )
+    p.add_argument("--design", metavar="DESIGN.toml", help="arm design (default: the paper's arm)")
+    p.add_argument(
+        "--current", nargs=6, type=float, metavar="Q", help="present joint angles, degrees"
+    )
+    p.add_argument("--exact", action="store_true", help="no graceful degradation")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(func=cmd_ik)

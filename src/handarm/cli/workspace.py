@@ -1,0 +1,114 @@
+"""``handarm workspace`` and ``handarm study``: reachability maps and trade studies."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from handarm.cli._common import add_design_arg, add_quiet, load_design, option_error
+
+_MAP_OPTIONS = {
+    "voxel": "--voxel",
+    "directions": "--directions",
+    "threshold": "--threshold",
+}
+
+
+def cmd_workspace(args: argparse.Namespace) -> int:
+    """Reachability map, workspace scores, the paper's claims checked, pictures."""
+    from handarm.pipeline import map_workspace
+
+    design = load_design(args.design)
+    try:
+        paths = map_workspace(
+            design,
+            args.out,
+            voxel=args.voxel,
+            directions=args.directions,
+            threshold=args.threshold,
+            sensitivity=not args.no_sensitivity,
+            progress=not args.quiet,
+        )
+    except ValueError as exc:
+        raise option_error(exc, _MAP_OPTIONS) from None
+    report = json.loads(next(p for p in paths if p.name == "workspace.json").read_text())
+    sc = report["scores"]
+    print(
+        f"reachable volume {sc['reachable_volume_m3'] * 1e3:.2f} L, dexterous volume "
+        f"(index >= {sc['threshold']:g}) {sc['dexterous_volume_m3'] * 1e3:.2f} L, "
+        f"mean index {sc['mean_index']:.3f}"
+    )
+    print(f"{report['ik_queries']} IK queries at {report['ik_queries_per_second']:,.0f}/s")
+    if "sensitivity" in report:
+        print(
+            "most sensitive joints (reachable, dexterous): "
+            f"{report['sensitivity']['most_sensitive_reachable']}, "
+            f"{report['sensitivity']['most_sensitive_dexterous']}"
+        )
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_study(args: argparse.Namespace) -> int:
+    """Trade study: carve and score every design of STUDY.toml (resumable, on Dask)."""
+    from tqdm import tqdm
+
+    from handarm.workspace.study_file import load_study
+    from handarm.workspace.study_run import run_study
+
+    study = load_study(args.study)
+    with tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar:
+
+        def tick(done: int, total: int) -> None:
+            bar.update(done - bar.n)
+
+        try:
+            result = run_study(
+                study, args.out, scheduler=args.scheduler, workers=args.workers, progress=tick
+            )
+        except ValueError as exc:
+            raise option_error(exc, {"scheduler": "--scheduler", "workers": "--workers"}) from None
+    rows = result["rows"]
+    print(f"{result['computed']} designs computed, {result['reused']} found on disk")
+    best = max(rows, key=lambda r: r["score"])
+    print(
+        f"best: {best['name']} (score {best['score']:.4f}); Pareto front: "
+        + ", ".join(r["name"] for r in rows if r["pareto"])
+    )
+    print(f"wrote {args.out}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommands to the ``handarm`` parser."""
+    p = sub.add_parser(
+        "workspace",
+        help="reachability map and workspace scores",
+        description="Reachability map, workspace scores, the paper's claims checked, pictures.",
+    )
+    add_design_arg(p)
+    p.add_argument("--out", default="build/workspace", help="output folder")
+    p.add_argument("--voxel", type=float, default=0.01, metavar="M", help="voxel edge, m (0.01)")
+    p.add_argument("--directions", type=int, default=100, help="approach directions (100)")
+    p.add_argument(
+        "--threshold", type=float, default=0.5, help="reachability index counted as dexterous (0.5)"
+    )
+    p.add_argument("--no-sensitivity", action="store_true", help="skip per-joint sensitivity")
+    add_quiet(p)
+    p.set_defaults(func=cmd_workspace)
+
+    p = sub.add_parser(
+        "study",
+        help="joint-limit trade study (Dask)",
+        description="Trade study: carve and score every design of STUDY.toml (resumable, on Dask).",
+    )
+    p.add_argument("study", metavar="STUDY.toml", help="study file")
+    p.add_argument("--out", default="build/study", help="output folder (resumable)")
+    p.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:8786",
+        help="a Dask scheduler to run on (default: local processes)",
+    )
+    p.add_argument("--workers", type=int, help="local worker processes (default 2)")
+    add_quiet(p)
+    p.set_defaults(func=cmd_study)

@@ -1,0 +1,28 @@
+"""Constants and small helpers shared by the IK kernels (numba)."""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+PI = math.pi
+TWO_PI = 2.0 * math.pi
+MAX_CAND = 96  # candidate events per canonical problem (at most 74 are generated)
+MAX_IV = 40  # intervals per canonical problem and elbow
+VERTICAL_EPS = 1e-12  # |horizontal part of e| below this: the direction is vertical
+# Ranges closer than this (m) are one range: a constraint that only touches its bound inside a
+# range leaves a hole of a single point, which rounding turns into ~1e-9 m or nothing.
+MERGE_GAP = 2e-9
+WS_SIZE = 128
+
+JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
+
+
+@nb.njit(**JIT)
+def wrap(x):
+    """Angle to (-pi, pi]."""
+    y = x - TWO_PI * math.floor((x + PI) / TWO_PI)
+    if y <= -PI:
+        y += TWO_PI
+    return y

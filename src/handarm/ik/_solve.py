@@ -1,0 +1,395 @@
+"""Numba kernels of the full 5-DoF problem: both canonical problems merged along L.
+
+Both 3R sub-problems (base B, tip E) are solved as one *canonical* planar problem:
+
+* a fixed link from H = (-b0, 0) to the joint O = (0, 0) (pointing along +x);
+* a 2R chain O -> A (length b1, angle qa from +x) -> P (length b2, relative angle qb);
+* P on the line L = {N + tau d}, |d| = 1, N the foot of the perpendicular from O (N.d = 0);
+* the shared link l3 from P to Q = P + b3 d; qc = angle(d) - angle(AP), wrapped to (-pi, pi].
+
+Validity: qa, qb, qc in their limits, and no touching of the closed segments
+(HO, AP), (HO, PQ), (OA, PQ). The base problem is this with (b0..b3) = (a0..a3) and
+(qa, qb, qc) = (q1, q2, q3). The tip problem, seen from the tool, is this with
+(b0..b3) = (a6, a5, a4, a3) and (qa, qb, qc) = (-q6, -q5, -q4) after a rigid motion of the
+tip plane that puts joint 6 at O and the tool point at H.
+
+Along tau, validity can change only where some predicate changes truth value (the
+*events*): a joint angle meets a limit or wraps through pi, P meets a reach circle, or
+an endpoint of one segment of a checked pair touches the other segment (for closed
+segments moving continuously these are the only ways contact begins or ends). Every
+event is the root of a polynomial in tau of degree <= 6, solved exactly below; each gap
+between consecutive events is then classified by one interior point.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from handarm.ik._classify import _angles, canonical_intervals, canonical_valid
+from handarm.ik._common import JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
+from handarm.ik._events import reach_half_width
+
+
+@nb.njit(**JIT)
+def _frames(p, e, dx, dy, a, out):
+    """Canonical frames of both sub-problems for the line direction (dx, dy).
+
+    Returns (base N, base offset, tip N, tip direction, tip offset) packed in an array::
+
+        [bnx, bny, bofs, tnx, tny, tdx, tdy, tofs]
+
+    with u = tau_B + bofs for the base and u = -(tau_E + tofs) for the tip.
+    """
+    fx, fy = p[0], p[1]
+    fd = fx * dx + fy * dy
+    out[0], out[1] = fx - fd * dx, fy - fd * dy
+    out[2] = a[3] - fd  # P = J3 = F + (u - a3) d = N + (u - a3 + F.d) d
+    # tip plane (U along d, V along z), origin at F
+    eu = e[0] * dx + e[1] * dy
+    ev = e[2]
+    en = math.sqrt(eu * eu + ev * ev)
+    eu, ev = eu / en, ev / en
+    t6u, t6v = -a[6] * eu, p[2] - a[6] * ev  # joint 6
+    gamma = math.atan2(ev, eu) + PI  # direction from the tool to joint 6
+    cg, sg = math.cos(-gamma), math.sin(-gamma)
+    # F - T6 and the direction -U, rotated by -gamma
+    fcx, fcy = cg * (-t6u) - sg * (-t6v), sg * (-t6u) + cg * (-t6v)
+    tdx, tdy = -cg, -sg
+    fcd = fcx * tdx + fcy * tdy
+    out[3], out[4] = fcx - fcd * tdx, fcy - fcd * tdy
+    out[5], out[6] = tdx, tdy
+    out[7] = -fcd  # P = J4 = F_c - u d_c = N_c + (F_c.d_c - u) d_c
+
+
+@nb.njit(**JIT)
+def _limits(lower, upper, lb, lt):
+    for k in range(3):
+        lb[2 * k], lb[2 * k + 1] = lower[k], upper[k]
+        # tip: (qa, qb, qc) = (-q6, -q5, -q4)
+        lt[2 * k], lt[2 * k + 1] = -upper[5 - k], -lower[5 - k]
+
+
+@nb.njit(**JIT)
+def configuration_at_u(p, e, dx, dy, u, elbow_b, elbow_e, a, out):
+    """Joint angles at u on the branch (elbows as +1/-1); returns False if unreachable."""
+    fr = np.empty(8)
+    _frames(p, e, dx, dy, a, fr)
+    return _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out)
+
+
+@nb.njit(**JIT)
+def _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out):
+    ok, q1, q2, q3 = _angles(
+        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[1], a[2], math.atan2(dy, dx)
+    )
+    if not ok:
+        return False
+    # the tip elbow is +1 when q5 >= 0, i.e. qb_canonical <= 0
+    ok, qa, qb, qc = _angles(
+        fr[3], fr[4], fr[5], fr[6], -u - fr[7], -elbow_e, a[5], a[4], math.atan2(fr[6], fr[5])
+    )
+    if not ok:
+        return False
+    out[0], out[1], out[2] = q1, q2, q3
+    out[3], out[4], out[5] = -qc, -qb, -qa
+    return True
+
+
+@nb.njit(**JIT)
+def _union_to_tip(iv_b, cnt_b, ofs_b, ofs_t, out):
+    """Union of both base elbows' intervals, mapped to tip tau (ascending); returns count."""
+    n = 0
+    i = 0
+    j = 0
+    # merge the two sorted lists by their lower ends
+    while i < cnt_b[0] or j < cnt_b[1]:
+        if j >= cnt_b[1] or (i < cnt_b[0] and iv_b[0, i, 0] <= iv_b[1, j, 0]):
+            lo, hi = iv_b[0, i, 0], iv_b[0, i, 1]
+            i += 1
+        else:
+            lo, hi = iv_b[1, j, 0], iv_b[1, j, 1]
+            j += 1
+        if n > 0 and lo <= out[n - 1, 1]:
+            out[n - 1, 1] = max(out[n - 1, 1], hi)
+        else:
+            out[n, 0], out[n, 1] = lo, hi
+            n += 1
+    # u = tau_B + ofs_b and tau_E = -u - ofs_t reverse the order
+    for k in range(n):
+        lo, hi = out[k, 0], out[k, 1]
+        out[k, 0], out[k, 1] = -(hi + ofs_b) - ofs_t, -(lo + ofs_b) - ofs_t
+    for k in range(n // 2):
+        for c in range(2):
+            tmp = out[k, c]
+            out[k, c] = out[n - 1 - k, c]
+            out[n - 1 - k, c] = tmp
+    return n
+
+
+VERTICAL_STEP = math.radians(0.5)
+
+
+@nb.njit(**JIT)
+def _workspace(lower, upper):
+    """Scratch space of one solving thread: limits, then arrays reused for every target."""
+    lb = np.empty(6)
+    lt = np.empty(6)
+    _limits(lower, upper, lb, lt)
+    return (
+        lb,
+        lt,
+        np.empty((2, MAX_IV, 2)),
+        np.empty((2, MAX_IV, 2)),
+        np.zeros(2, np.int64),
+        np.zeros(2, np.int64),
+        np.empty((2 * MAX_IV, 2)),
+        np.empty(6),
+        np.empty(8),
+        np.empty(MAX_CAND),
+        np.empty(MAX_CAND, np.int8),
+        np.empty(WS_SIZE),
+    )
+
+
+@nb.njit(**JIT)
+def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi_used):
+    """Every 5-DoF solution range of one target.
+
+    Returns the number of ranges found (rows beyond ``out_q.shape[0]`` are not stored),
+    or -1 if an internal interval buffer overflowed. When ``e`` is vertical, L may take
+    any azimuth: the first azimuth with a solution, going out from ``psi_vertical`` in
+    steps of VERTICAL_STEP, is used. The azimuth of d = +1 goes to ``psi_used[0]``.
+    """
+    work = _workspace(lower, upper)
+    return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work)
+
+
+@nb.njit(**JIT)
+def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work):
+    if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
+        psi_used[0] = math.atan2(e[1], e[0])
+        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work)
+    # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
+    n_steps = int(math.ceil(0.5 * PI / VERTICAL_STEP))
+    for k in range(2 * n_steps + 1):
+        off = ((k + 1) // 2) * VERTICAL_STEP * (1.0 if k % 2 == 1 else -1.0)
+        psi = wrap(psi_vertical + off)
+        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work)
+        if n != 0:
+            psi_used[0] = psi
+            return n
+    psi_used[0] = psi_vertical
+    return 0
+
+
+@nb.njit(**JIT)
+def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt):
+    """Both sub-problems valid at u (the classification's own predicate)."""
+    return canonical_valid(
+        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[0], a[1], a[2], a[3], lb, math.atan2(dy, dx)
+    ) and canonical_valid(
+        fr[3],
+        fr[4],
+        fr[5],
+        fr[6],
+        -u - fr[7],
+        -elbow_e,
+        a[6],
+        a[5],
+        a[4],
+        a[3],
+        lt,
+        math.atan2(fr[6], fr[5]),
+    )
+
+
+@nb.njit(**JIT)
+def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
+    """Configuration at the range's midpoint into q; returns False if none is usable.
+
+    Where a constraint only touches its bound inside a range (a tangency: valid on both
+    sides), the midpoint can sit on it and fail by one rounding step; then the nearest of
+    the points at 1/4, 3/4, 1/8, 7/8, ... of the range that passes is used.
+    """
+    frac = 0.5
+    step = 0.25
+    for attempt in range(13):
+        u = lo + frac * (hi - lo)
+        if _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, q) and _valid_at(
+            fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt
+        ):
+            return True
+        # 0.5, 0.25, 0.75, 0.125, 0.875, ...
+        if attempt % 2 == 0:
+            frac = 0.5 - step
+        else:
+            frac = 0.5 + step
+            step *= 0.5
+    return False
+
+
+@nb.njit(**JIT)
+def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
+    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = work
+    cap = out_q.shape[0]
+    hx, hy = e[0], e[1]
+    hn = math.sqrt(hx * hx + hy * hy)
+    if hn < VERTICAL_EPS:
+        hx, hy, hn = math.cos(psi_vertical), math.sin(psi_vertical), 1.0
+    total = 0
+    overflow = False
+    for s in range(2):
+        sgn = 1.0 if s == 0 else -1.0
+        dx, dy = sgn * hx / hn, sgn * hy / hn
+        _frames(p, e, dx, dy, a, fr)
+        # u-range where both chains reach L: tau_B = u - fr[2], tau_E = -u - fr[7]
+        wb = reach_half_width(fr[0], fr[1], a[1], a[2])
+        wt = reach_half_width(fr[3], fr[4], a[5], a[4])
+        if wb < 0.0 or wt < 0.0:
+            continue
+        u_lo = max(-wb + fr[2], -wt - fr[7])
+        u_hi = min(wb + fr[2], wt - fr[7])
+        if u_lo >= u_hi:
+            continue
+        ok1 = canonical_intervals(
+            fr[0],
+            fr[1],
+            dx,
+            dy,
+            a[0],
+            a[1],
+            a[2],
+            a[3],
+            lb,
+            u_lo - fr[2],
+            u_hi - fr[2],
+            allowed,
+            -1,
+            iv_b,
+            cnt_b,
+            buf,
+            tags,
+            ws,
+        )
+        if cnt_b[0] + cnt_b[1] == 0:
+            continue
+        # where the base has a solution (either elbow), in tau_E, ascending
+        n_al = _union_to_tip(iv_b, cnt_b, fr[2], fr[7], allowed)
+        ok2 = canonical_intervals(
+            fr[3],
+            fr[4],
+            fr[5],
+            fr[6],
+            a[6],
+            a[5],
+            a[4],
+            a[3],
+            lt,
+            -u_hi - fr[7],
+            -u_lo - fr[7],
+            allowed,
+            n_al,
+            iv_t,
+            cnt_t,
+            buf,
+            tags,
+            ws,
+        )
+        overflow = overflow or not (ok1 and ok2)
+        for eb in range(2):
+            for ee in range(2):
+                # tip canonical elbow index ee: 0 is qb_c >= 0 (q5 <= 0), so the tip
+                # branch sign is -1 for ee == 0.
+                elbow_e = -1.0 if ee == 0 else 1.0
+                i = 0
+                j = 0
+                while i < cnt_b[eb] and j < cnt_t[ee]:
+                    b_lo = iv_b[eb, i, 0] + fr[2]
+                    b_hi = iv_b[eb, i, 1] + fr[2]
+                    t_lo = -(iv_t[ee, cnt_t[ee] - 1 - j, 1] + fr[7])
+                    t_hi = -(iv_t[ee, cnt_t[ee] - 1 - j, 0] + fr[7])
+                    lo = max(b_lo, t_lo)
+                    hi = min(b_hi, t_hi)
+                    if lo < hi:
+                        elbow_b = 1.0 if eb == 0 else -1.0
+                        if _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
+                            if total < cap:
+                                for k in range(6):
+                                    out_q[total, k] = q[k]
+                                out_br[total, 0] = int(sgn)
+                                out_br[total, 1] = int(elbow_b)
+                                out_br[total, 2] = int(elbow_e)
+                                out_iv[total, 0] = lo
+                                out_iv[total, 1] = hi
+                            total += 1
+                    if b_hi < t_hi:
+                        i += 1
+                    else:
+                        j += 1
+    if overflow:
+        return -1
+    return total
+
+
+@nb.njit(parallel=True, **JIT)
+def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, counts, psi_used):
+    """solve_target over rows, in parallel; rows beyond capacity are counted, not stored.
+
+    Rows go in blocks so that each block allocates its scratch space once.
+    """
+    n = P.shape[0]
+    block = 256
+    n_blocks = (n + block - 1) // block
+    for b in nb.prange(n_blocks):
+        work = _workspace(lower, upper)
+        for i in range(b * block, min(n, (b + 1) * block)):
+            counts[i] = _solve_any_azimuth(
+                P[i],
+                E[i],
+                psi_vertical[i],
+                a,
+                out_q[i],
+                out_br[i],
+                out_iv[i],
+                psi_used[i : i + 1],
+                work,
+            )
+            # pad the unused rows here: the caller's arrays are left uninitialised
+            for r in range(max(counts[i], 0), out_q.shape[1]):
+                for c in range(6):
+                    out_q[i, r, c] = np.nan
+                for c in range(3):
+                    out_br[i, r, c] = 0
+                out_iv[i, r, 0] = np.nan
+                out_iv[i, r, 1] = np.nan
+
+
+@nb.njit(**JIT)
+def configurations_along_u(p, e, dx, dy, us, elbow_b, elbow_e, a, out, ok):
+    """configuration_at_u for many u of one branch."""
+    fr = np.empty(8)
+    _frames(p, e, dx, dy, a, fr)
+    for i in range(us.shape[0]):
+        ok[i] = _configuration(fr, dx, dy, us[i], elbow_b, elbow_e, a, out[i])
+
+
+@nb.njit(parallel=True, **JIT)
+def count_many(P, E, psi_vertical, a, lower, upper, counts):
+    """Number of solution ranges of each target, without storing them (workspace maps)."""
+    n = P.shape[0]
+    block = 256
+    n_blocks = (n + block - 1) // block
+    for b in nb.prange(n_blocks):
+        work = _workspace(lower, upper)
+        q = np.empty((_COUNT_CAP, 6))
+        br = np.empty((_COUNT_CAP, 3), np.int8)
+        iv = np.empty((_COUNT_CAP, 2))
+        used = np.empty(1)
+        for i in range(b * block, min(n, (b + 1) * block)):
+            counts[i] = _solve_any_azimuth(P[i], E[i], psi_vertical[i], a, q, br, iv, used, work)
+
+
+_COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardless

@@ -1,0 +1,173 @@
+"""Result values of the IK: one target (IKResult) or many (BatchResult), and a text table."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from handarm._checks import check_joints
+
+__all__ = ["IKResult", "BatchResult", "MAX_SOLUTIONS", "format_result", "nearest_solution"]
+
+#: Rows of a batch result (the paper's example has up to ranges x 2 x 2 x 2 = 24).
+MAX_SOLUTIONS = 24
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class IKResult:
+    """Every solution range of one target.
+
+    Attributes
+    ----------
+    solutions : ndarray, shape (k, 6)
+        Joint angles (rad) at the midpoint of each range; sorted by distance to ``current``
+        when it was given, else by branch and u.
+    branches : ndarray of int, shape (k, 3)
+        (sign of d, elbow of B, elbow of E), each +1/-1.
+    intervals : ndarray, shape (k, 2)
+        [u_lo, u_hi] of joint 4 along L for each range (m).
+    reached_dof : int
+        5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``).
+    position_error, direction_error : float
+        Distance (m) and angle (rad) between the target and the pose of ``solutions``.
+    vertical : bool
+        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``: the azimuth
+        with a solution nearest to that of ``current`` (l3's direction), or without
+        ``current``, nearest to the direction from joint 1 towards the target (0.5 degree
+        steps).
+    azimuth : float
+        Direction of L (rad from +x) for d = +1.
+    achieved_position, achieved_direction : ndarray, shape (3,)
+        The pose the solutions reach (the target itself when reached_dof == 5).
+    follow : ndarray, shape (6,) or None
+        With ``current``: the configuration inside the ranges nearest to it (u of each range
+        clamped towards the present one). It moves little when the target moves little,
+        which makes it the output to send in a handheld control loop. None without
+        ``current`` or without solutions.
+    """
+
+    solutions: np.ndarray
+    branches: np.ndarray
+    intervals: np.ndarray
+    reached_dof: int = 5
+    position_error: float = 0.0
+    direction_error: float = 0.0
+    vertical: bool = False
+    azimuth: float = 0.0
+    achieved_position: np.ndarray | None = None
+    achieved_direction: np.ndarray | None = None
+    follow: np.ndarray | None = None
+
+    @property
+    def count(self) -> int:
+        """Number of solution ranges."""
+        return len(self.solutions)
+
+    def __len__(self) -> int:
+        return self.count
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which)."""
+        return {
+            "reached_dof": int(self.reached_dof),
+            "position_error_m": float(self.position_error),
+            "direction_error_deg": math.degrees(self.direction_error),
+            "vertical": bool(self.vertical),
+            "azimuth_deg": math.degrees(self.azimuth),
+            "achieved_position_m": _list(self.achieved_position),
+            "achieved_direction": _list(self.achieved_direction),
+            "solutions": [
+                {
+                    "q_deg": np.degrees(q).tolist(),
+                    "branch": [int(b) for b in br],
+                    "u_range_m": iv.tolist(),
+                }
+                for q, br, iv in zip(self.solutions, self.branches, self.intervals, strict=True)
+            ],
+            "follow_deg": None if self.follow is None else np.degrees(self.follow).tolist(),
+        }
+
+    def nearest(self, current) -> np.ndarray:
+        """The solution closest to ``current`` (Euclidean in joint space), shape (6,)."""
+        if self.count == 0:
+            raise ValueError("no solution to choose from")
+        return self.solutions[nearest_solution(self.solutions, current)]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BatchResult:
+    """Solutions of N targets, padded to ``MAX_SOLUTIONS`` rows.
+
+    Attributes
+    ----------
+    counts : ndarray of int, shape (N,)
+        Ranges stored per target (rows past it are NaN in ``solutions`` and ``intervals``,
+        0 in ``branches``).
+    solutions : ndarray, shape (N, 24, 6)
+    branches : ndarray of int8, shape (N, 24, 3)
+    intervals : ndarray, shape (N, 24, 2)
+    truncated : ndarray of bool, shape (N,)
+        More than 24 ranges existed; the first 24 (by branch and u) are stored.
+    vertical : ndarray of bool, shape (N,)
+    azimuth : ndarray, shape (N,)
+        Direction of L for d = +1 (for vertical rows, the azimuth used; see IKResult).
+    """
+
+    counts: np.ndarray
+    solutions: np.ndarray
+    branches: np.ndarray
+    intervals: np.ndarray
+    truncated: np.ndarray
+    vertical: np.ndarray
+    azimuth: np.ndarray
+
+
+def _list(x):
+    return None if x is None else np.asarray(x, dtype=float).tolist()
+
+
+def format_result(result: IKResult) -> str:
+    """Human-readable table of an IKResult: joint angles in degrees, ranges in mm."""
+    lines = []
+    level = {
+        5: "5 DoF (exact)",
+        4: "4 DoF (pitch or yaw relaxed)",
+        3: "3 DoF (position only)",
+        2: "2 DoF (out of reach: nearest point, pointing at the target)",
+    }
+    lines.append(f"reached: {level.get(result.reached_dof, result.reached_dof)}")
+    if result.reached_dof < 5:
+        lines.append(
+            f"position error {result.position_error * 1e3:.3f} mm, "
+            f"direction error {math.degrees(result.direction_error):.3f} deg"
+        )
+    if result.vertical:
+        lines.append(
+            f"vertical direction: L taken at azimuth {math.degrees(result.azimuth):.2f} deg"
+        )
+    lines.append(f"{result.count} solution range(s)")
+    if result.count:
+        head = "  #   " + "".join(f"{'q' + str(k):>9}" for k in range(1, 7))
+        lines.append(head + "   branch (d,B,E)   u range (mm)")
+        for i, (q, br, iv) in enumerate(
+            zip(result.solutions, result.branches, result.intervals, strict=True)
+        ):
+            angles = "".join(f"{v:9.2f}" for v in np.degrees(q))
+            signs = " ".join(f"{int(b):+d}" for b in br)
+            lines.append(
+                f"{i + 1:>3}   {angles}   {signs:>14}   [{iv[0] * 1e3:.2f}, {iv[1] * 1e3:.2f}]"
+            )
+    if result.follow is not None:
+        lines.append(
+            "follow (nearest to current): "
+            + " ".join(f"{v:.2f}" for v in np.degrees(result.follow))
+        )
+    return "\n".join(lines) + "\n"
+
+
+def nearest_solution(solutions: np.ndarray, current) -> int:
+    """Index of the row of ``solutions`` (k, 6) closest to ``current`` (6,)."""
+    current = check_joints(current, "current")
+    return int(np.argmin(np.sum((solutions - current) ** 2, axis=-1)))

@@ -1,0 +1,93 @@
+"""The servo specification: one table that transmission, bridge, emulator and handle read.
+
+Every number about the servo lives here: the model number on the bus, encoder ticks per
+revolution, the joint-mode and multi-turn ranges, stall torque and no-load speed at the rated
+voltage, mass and body outline. Sources: ROBOTIS e-manual, MX-64 page (Protocol 1.0 firmware,
+model number 310; specifications table).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+__all__ = ["ServoSpec", "SERVOS", "servo_spec"]
+
+
+@dataclasses.dataclass(frozen=True)
+class ServoSpec:
+    """Facts about one servo model (SI units, ticks for encoder counts).
+
+    Attributes
+    ----------
+    name : str
+        Model name as written in design files (``servo_model``).
+    model_number : int
+        Model Number register (address 0) of the Protocol 1.0 firmware.
+    protocol : float
+        Dynamixel protocol version the bridge speaks to it.
+    ticks_per_rev : int
+        Encoder ticks per motor revolution.
+    joint_mode_max : int
+        Largest Goal Position in joint mode (0 .. joint_mode_max).
+    multi_turn_limit : int
+        Largest |Goal Position| in multi-turn mode.
+    max_torque_register : int
+        Largest value of the Max Torque and Torque Limit registers.
+    stall_torque : float
+        Stall torque at ``voltage`` (N m).
+    no_load_speed : float
+        No-load speed at ``voltage`` (rad/s).
+    voltage : float
+        Rated supply voltage the torque and speed refer to (V).
+    mass : float
+        Mass of the servo (kg).
+    outline : tuple of 3 float
+        Body width x height x depth (m), horn axis along the depth.
+    """
+
+    name: str
+    model_number: int
+    protocol: float
+    ticks_per_rev: int
+    joint_mode_max: int
+    multi_turn_limit: int
+    max_torque_register: int
+    stall_torque: float
+    no_load_speed: float
+    voltage: float
+    mass: float
+    outline: tuple[float, float, float]
+
+    @property
+    def ticks_per_radian(self) -> float:
+        """Encoder ticks per radian of motor rotation."""
+        return self.ticks_per_rev / (2.0 * math.pi)
+
+
+_MX64 = dict(
+    model_number=310,
+    protocol=1.0,
+    ticks_per_rev=4096,
+    joint_mode_max=4095,
+    multi_turn_limit=28672,
+    max_torque_register=1023,
+    stall_torque=6.0,  # N m at 12 V, 4.1 A
+    no_load_speed=63.0 * 2.0 * math.pi / 60.0,  # 63 rpm at 12 V
+    voltage=12.0,
+    outline=(0.0402, 0.0611, 0.041),
+)
+
+#: Servo models the toolkit knows, by the name used in design files.
+SERVOS: dict[str, ServoSpec] = {
+    "MX-64T": ServoSpec(name="MX-64T", mass=0.126, **_MX64),
+    "MX-64AT": ServoSpec(name="MX-64AT", mass=0.135, **_MX64),
+}
+
+
+def servo_spec(name: str) -> ServoSpec:
+    """The specification of a servo model; ValueError naming ``servo_model`` if unknown."""
+    try:
+        return SERVOS[name]
+    except KeyError:
+        raise ValueError(f"servo_model: unknown model {name!r}; known: {sorted(SERVOS)}") from None

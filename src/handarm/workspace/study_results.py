@@ -1,0 +1,111 @@
+"""Results of a study: the table, the Pareto front, pictures and a summary."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from handarm._io import write_text_atomic
+from handarm.workspace.maps import ReachabilityMap
+from handarm.workspace.plots import pareto_picture, slice_picture
+from handarm.workspace.study_file import Study, design_key
+
+__all__ = ["pareto_front", "study_table"]
+
+
+def pareto_front(rows) -> list[bool]:
+    """Which rows are not dominated in (workspace score up, mass down).
+
+    A row is dominated when another has at least its workspace score and at most its mass,
+    one of them strictly.
+    """
+    out = []
+    for r in rows:
+        dominated = any(
+            o["workspace_score"] >= r["workspace_score"]
+            and o["mass_kg"] <= r["mass_kg"]
+            and (o["workspace_score"] > r["workspace_score"] or o["mass_kg"] < r["mass_kg"])
+            for o in rows
+        )
+        out.append(not dominated)
+    return out
+
+
+def study_table(study: Study, out: str | os.PathLike[str]) -> list[dict]:
+    """Rows of the finished designs (in study order); writes results.csv and the pictures."""
+    out = Path(out)
+    settings = {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold}
+    rows, maps = [], {}
+    for name, _params, design in study.designs:
+        path = out / "designs" / f"{design_key(design, settings)}.json"
+        if path.exists():
+            row = json.loads(path.read_text())
+            rows.append(row)
+            maps[name] = path.with_suffix(".npz")
+    if not rows:
+        return rows
+    for row, front in zip(rows, pareto_front(rows), strict=True):
+        row["pareto"] = front
+    params = sorted({k for r in rows for k in r["params"]})
+    columns = [
+        "name",
+        *params,
+        "reachable_volume_m3",
+        "dexterous_volume_m3",
+        "mean_index",
+        "workspace_score",
+        "mass_kg",
+        "min_cross_section_m2",
+        "score",
+        "pareto",
+    ]
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(
+            [
+                r["name"],
+                *[r["params"].get(p, "") for p in params],
+                *[r[c] for c in columns[1 + len(params) :]],
+            ]
+        )
+    write_text_atomic(out / "results.csv", buf.getvalue())
+    pareto_picture(rows, out / "pictures" / "pareto.png")
+    best = max(rows, key=lambda r: r["score"])
+    with np.load(maps[best["name"]]) as z:
+        wmap = ReachabilityMap(
+            float(z["voxel"]),
+            z["centres"],
+            z["index"],
+            z["index"],
+            z["index"] > 0,
+            np.zeros((0, 3)),
+            float(z["reach"]),
+            (False, False),
+            0,
+            0.0,
+            float(z["handle"]),
+        )
+    for plane in ("xy", "xz"):
+        slice_picture(
+            wmap,
+            plane,
+            out / "pictures" / f"best_{plane}.png",
+            title=f"best design {best['name']!r}: {plane} slice",
+        )
+    summary = {
+        "study": study.name,
+        "designs": len(study.designs),
+        "finished": len(rows),
+        "best": best["name"],
+        "best_score": best["score"],
+        "pareto": [r["name"] for r in rows if r["pareto"]],
+    }
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    return rows
