@@ -38,6 +38,7 @@ _SUBMODULES = frozenset(
         "firmware_bridge",
         "ik",
         "kinematics",
+        "links",
         "pipeline",
         "servo",
         "summary",

@@ -8,9 +8,9 @@ from manifold3d import CrossSection, OpType
 import handarm
 from handarm.carve import carve, check_carvable, link_blank
 from handarm.carve.carving import _in_joint_frame
-from handarm.carve.parts import Part
 from handarm.carve.properties import to_trimesh
 from handarm.carve.sweep import sweep_parts
+from handarm.links import Part
 
 
 @pytest.fixture(scope="module")

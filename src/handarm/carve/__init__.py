@@ -6,7 +6,7 @@ joint, the requested, carved and achieved limits with what stops each side.
 
 from handarm._lazy import lazy_attributes
 from handarm.carve.carving import CarvedLink, CarveResult, JointReport, carve, check_carvable
-from handarm.carve.parts import joint_geometry, link_blank
+from handarm.links import joint_geometry, link_blank
 
 __all__ = [
     "CarveResult",
@@ -22,4 +22,4 @@ __all__ = [
 #: Progress ticks ``carve`` makes (for a progress bar's total).
 CARVE_STEPS = 6 + 7 + 6
 
-__getattr__, __dir__ = lazy_attributes(__name__, {"carving", "parts", "properties", "sweep"})
+__getattr__, __dir__ = lazy_attributes(__name__, {"carving", "properties", "sweep"})

@@ -18,9 +18,9 @@ import numpy as np
 from manifold3d import Manifold, OpType
 
 from handarm._checks import check_design
-from handarm.carve.parts import MM, LinkBlank, Part, link_blank
 from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, prism, sweep_parts
 from handarm.design import ArmDesign
+from handarm.links import MM, LinkBlank, Part, link_blank
 
 __all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"]
 

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from manifold3d import CrossSection, JoinType, Manifold, OpType
 
-from handarm.carve.parts import LinkBlank, Part
+from handarm.links import LinkBlank, Part
 
 __all__ = ["prism", "part_in_frame", "sweep_parts", "frame_to_link"]
 

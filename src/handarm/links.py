@@ -1,4 +1,10 @@
-"""Parametric link blanks (paper II-A.2), in millimetres.
+"""The shape of every link, from the design's dimensions: one description for every part.
+
+Carving builds its manifold3d blanks from it, the printed-link collision model builds its
+envelopes from it, and the URDF/MJCF collision geometry comes from it. It sits below
+``kinematics`` and ``ik`` (it imports only the design), so the IK never imports ``carve``.
+
+Parametric link blanks (paper II-A.2), in millimetres.
 
 Every link is a union of named convex *parts*, each a prism along the axis of one of the
 link's joints: a polygon in that joint's frame (x, y) and a range of z along its axle.
