@@ -28,6 +28,9 @@ __all__ = ["ArmDesign", "PAPER_LIMITS_DEG"]
 PAPER_LIMITS_DEG = (135.0, 150.0, 135.0, 125.0, 150.0, 150.0)
 
 
+#: Collision models ``is_valid`` and the IK know (see ``ArmDesign.collision_model``).
+COLLISION_MODELS = ("printed", "paper")
+
 _N_JOINTS = 6
 _N_LINKS = 7
 
@@ -82,6 +85,10 @@ class ArmDesign:
         Servo bus baud rate (bit/s).
     density : float
         Density of the printed link material (kg/m^3); ABS by default.
+    collision_model : str
+        What ``is_valid`` and the IK call a collision: ``"printed"`` (default) checks the
+        envelopes of the links the build prints, all 15 non-adjacent pairs, with the
+        clearance; ``"paper"`` the paper's zero-thickness segments in their planes.
     """
 
     name: str = "paper_arm"
@@ -104,6 +111,7 @@ class ArmDesign:
     servo_model: str = "MX-64T"
     baud_rate: int = 1_000_000
     density: float = 1040.0
+    collision_model: str = "printed"
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -275,6 +283,12 @@ def _sequence(field: str, value: Any, n: int) -> Sequence[Any]:
 
 def _normalise(name: str, value: Any) -> Any:
     """Check one field on its own and return it in canonical (hashable) form."""
+    if name == "collision_model":
+        if value not in COLLISION_MODELS:
+            raise ValueError(
+                f"collision_model: expected one of {list(COLLISION_MODELS)}, got {value!r}"
+            )
+        return value
     if name in ("name", "servo_model"):
         if not isinstance(value, str) or not value:
             raise ValueError(f"{name}: expected a non-empty string, got {value!r}")

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from handarm._checks import check_design, check_joints
+from handarm.collision import LINK_PAIRS, collision_free, printed_collisions
 from handarm.design import ArmDesign
 
 __all__ = [
@@ -28,6 +29,7 @@ __all__ = [
     "planar_points",
     "segments_intersect",
     "link_crossings",
+    "colliding_pairs",
     "COLLISION_PAIRS",
 ]
 
@@ -222,9 +224,48 @@ def link_crossings(design: ArmDesign, q) -> np.ndarray:
 
 
 def is_valid(design: ArmDesign, q) -> np.ndarray:
-    """Joint limits plus the paper's link-crossing model, shape (...,) bool.
+    """Joint limits plus the design's collision model, shape (...,) bool.
 
-    A configuration is valid when every joint is within its limits and no pair in
-    ``COLLISION_PAIRS`` crosses or touches as zero-thickness segments in its plane.
+    Parameters
+    ----------
+    design : ArmDesign
+        ``design.collision_model`` chooses what a collision is: ``"printed"`` (default),
+        the envelopes of the printed links, all 15 non-adjacent pairs, with the design's
+        clearance (``handarm.collision``); ``"paper"``, the paper's model, no pair in
+        ``COLLISION_PAIRS`` crossing or touching as zero-thickness segments in its plane.
+    q : array-like, shape (..., 6)
+        Joint angles (rad).
+
+    Returns
+    -------
+    ndarray of bool, shape (...,)
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not finite or not of shape (..., 6).
     """
-    return within_limits(design, q) & ~np.any(link_crossings(design, q), axis=-1)
+    check_design(design)
+    q = check_joints(q)
+    ok = within_limits(design, q)
+    if design.collision_model == "paper":
+        return ok & ~np.any(link_crossings(design, q), axis=-1)
+    return ok & collision_free(design, q)
+
+
+def colliding_pairs(design: ArmDesign, q) -> np.ndarray:
+    """Which non-adjacent link pairs collide under the design's model, shape (..., 15) bool.
+
+    Columns follow ``handarm.collision.LINK_PAIRS`` ((0, 2), (0, 3), ..., (4, 6)); under the
+    paper's model only its six segment pairs can be True.
+    """
+    check_design(design)
+    q = check_joints(q)
+    if design.collision_model == "paper":
+        out = np.zeros(q.shape[:-1] + (15,), bool)
+        crossing = link_crossings(design, q)
+        for k, (m, n) in enumerate(COLLISION_PAIRS):
+            a, b = sorted((int(m[1]), int(n[1])))
+            out[..., LINK_PAIRS.index((a, b))] = crossing[..., k]
+        return out
+    return printed_collisions(design, q)

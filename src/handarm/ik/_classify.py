@@ -54,13 +54,15 @@ def _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi):
 
 
 @nb.njit(**JIT)
-def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim, psi):
+def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim, psi, paper):
     """Whether the canonical configuration at tau on ``elbow`` is valid (psi = angle of d)."""
     ok, qa, qb, qc = _angles(nx, ny, dx, dy, tau, elbow, b1, b2, psi)
     if not ok:
         return False
     if qa < lim[0] or qa > lim[1] or qb < lim[2] or qb > lim[3] or qc < lim[4] or qc > lim[5]:
         return False
+    if not paper:
+        return True
     px, py = nx + tau * dx, ny + tau * dy
     qx, qy = px + b3 * dx, py + b3 * dy
     ax, ay = b1 * math.cos(qa), b1 * math.sin(qa)
@@ -75,7 +77,25 @@ def canonical_valid(nx, ny, dx, dy, tau, elbow, b0, b1, b2, b3, lim, psi):
 
 @nb.njit(**JIT)
 def canonical_intervals(
-    nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, allowed, n_allowed, iv, counts, buf, tags, ws
+    nx,
+    ny,
+    dx,
+    dy,
+    b0,
+    b1,
+    b2,
+    b3,
+    lim,
+    lo,
+    hi,
+    allowed,
+    n_allowed,
+    iv,
+    counts,
+    buf,
+    tags,
+    ws,
+    paper,
 ):
     """Valid tau intervals of a canonical problem within [lo, hi], per elbow.
 
@@ -84,7 +104,7 @@ def canonical_intervals(
     tau; ``n_allowed < 0`` allows everything) are not classified: the other sub-problem
     has no solution there. Returns False if an elbow had more than MAX_IV intervals.
     """
-    n = canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws)
+    n = canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws, paper)
     psi = math.atan2(dy, dx)
     counts[0] = 0
     counts[1] = 0
@@ -110,7 +130,9 @@ def canonical_intervals(
                 if j >= n_allowed or allowed[j, 0] >= t1:
                     open_ = False
                     continue
-            ok = canonical_valid(nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi)
+            ok = canonical_valid(
+                nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi, paper
+            )
             if ok and (open_ or (counts[e] > 0 and t0 - iv[e, counts[e] - 1, 1] <= MERGE_GAP)):
                 # contiguous, or across a hole narrower than MERGE_GAP (a tangency)
                 iv[e, counts[e] - 1, 1] = t1

@@ -75,13 +75,15 @@ def reach_half_width(nx, ny, b1, b2):
 
 
 @nb.njit(**JIT)
-def canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws):
+def canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws, paper):
     """Sorted candidate events in tau within [lo, hi] for one canonical problem.
 
     ``lim`` is (alo, ahi, blo, bhi, clo, chi); [lo, hi] must lie inside the reach chord.
     The ends lo and hi are the first and last entries; returns the count. ``tags`` gets
     the elbow each event belongs to (BOTH, ELBOW_POS, ELBOW_NEG). ``ws`` is scratch space
-    of WS_SIZE floats.
+    of WS_SIZE floats. The segment-contact events (iv)-(viii) belong to the paper's
+    collision model and are generated only when ``paper`` is True; the printed-link model
+    is decided on the whole arm (``_printed``).
     """
     m2 = nx * nx + ny * ny
     n = 0
@@ -142,6 +144,30 @@ def canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws)
             dx,
             dy,
         )
+    if paper:
+        n = _contact_events(nx, ny, dx, dy, b0, b1, b2, b3, lo, hi, buf, tags, ws, n)
+    if n < buf.shape[0]:
+        buf[n] = hi
+        tags[n] = BOTH
+        n += 1
+    # insertion sort (n is small)
+    for i in range(1, n):
+        x = buf[i]
+        g = tags[i]
+        j = i - 1
+        while j >= 0 and buf[j] > x:
+            buf[j + 1] = buf[j]
+            tags[j + 1] = tags[j]
+            j -= 1
+        buf[j + 1] = x
+        tags[j + 1] = g
+    return n
+
+
+@nb.njit(**JIT)
+def _contact_events(nx, ny, dx, dy, b0, b1, b2, b3, lo, hi, buf, tags, ws, n):
+    """The paper model's segment-contact events (iv)-(viii), appended to buf from n."""
+    m2 = nx * nx + ny * ny
     # Contact events below only matter where the touching point lies on the touched
     # segment; `slack` keeps candidates that miss it by rounding only.
     slack = 1e-9 * (b0 + b1 + b2 + b3)
@@ -210,19 +236,4 @@ def canonical_events(nx, ny, dx, dy, b0, b1, b2, b3, lim, lo, hi, buf, tags, ws)
                 if rho > 0.0:
                     tag = _elbow_tag(b1 * qx / rho, b1 * qy / rho, px, py)
                 n = _push(buf, tags, n, t, lo, hi, tag)
-    if n < buf.shape[0]:
-        buf[n] = hi
-        tags[n] = BOTH
-        n += 1
-    # insertion sort (n is small)
-    for i in range(1, n):
-        x = buf[i]
-        g = tags[i]
-        j = i - 1
-        while j >= 0 and buf[j] > x:
-            buf[j + 1] = buf[j]
-            tags[j + 1] = tags[j]
-            j -= 1
-        buf[j + 1] = x
-        tags[j + 1] = g
     return n

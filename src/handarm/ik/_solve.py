@@ -31,6 +31,10 @@ import numpy as np
 from handarm.ik._classify import _angles, canonical_intervals, canonical_valid
 from handarm.ik._common import JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
 from handarm.ik._events import reach_half_width
+from handarm.ik._printed import free_at, printed_ranges, printed_scratch
+
+#: Length of the array ``_frames`` fills.
+FRAMES_SIZE = 14
 
 
 @nb.njit(**JIT)
@@ -39,9 +43,12 @@ def _frames(p, e, dx, dy, a, out):
 
     Returns (base N, base offset, tip N, tip direction, tip offset) packed in an array::
 
-        [bnx, bny, bofs, tnx, tny, tdx, tdy, tofs]
+        [bnx, bny, bofs, tnx, tny, tdx, tdy, tofs, cos g, sin g, t6u, t6v, eu, ev]
 
-    with u = tau_B + bofs for the base and u = -(tau_E + tofs) for the tip.
+    with u = tau_B + bofs for the base and u = -(tau_E + tofs) for the tip; then the tip
+    canonical frame: a point X_c of it is T6 + R(g) X_c in the tip plane (U along d from
+    F = (p_x, p_y), V vertical), T6 = (t6u, t6v) is joint 6, and (eu, ev) the tool
+    direction in that plane.
     """
     fx, fy = p[0], p[1]
     fd = fx * dx + fy * dy
@@ -62,6 +69,9 @@ def _frames(p, e, dx, dy, a, out):
     out[3], out[4] = fcx - fcd * tdx, fcy - fcd * tdy
     out[5], out[6] = tdx, tdy
     out[7] = -fcd  # P = J4 = F_c - u d_c = N_c + (F_c.d_c - u) d_c
+    out[8], out[9] = cg, -sg  # R(g) undoes R(-g)
+    out[10], out[11] = t6u, t6v
+    out[12], out[13] = eu, ev
 
 
 @nb.njit(**JIT)
@@ -75,7 +85,7 @@ def _limits(lower, upper, lb, lt):
 @nb.njit(**JIT)
 def configuration_at_u(p, e, dx, dy, u, elbow_b, elbow_e, a, out):
     """Joint angles at u on the branch (elbows as +1/-1); returns False if unreachable."""
-    fr = np.empty(8)
+    fr = np.empty(FRAMES_SIZE)
     _frames(p, e, dx, dy, a, fr)
     return _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out)
 
@@ -132,8 +142,12 @@ def _union_to_tip(iv_b, cnt_b, ofs_b, ofs_t, out):
 VERTICAL_STEP = math.radians(0.5)
 
 
+#: Stretches of one range that the printed-link model can leave (per range and branch).
+MAX_SUB = 64
+
+
 @nb.njit(**JIT)
-def _workspace(lower, upper):
+def _workspace(lower, upper, n_pieces):
     """Scratch space of one solving thread: limits, then arrays reused for every target."""
     lb = np.empty(6)
     lt = np.empty(6)
@@ -147,37 +161,44 @@ def _workspace(lower, upper):
         np.zeros(2, np.int64),
         np.empty((2 * MAX_IV, 2)),
         np.empty(6),
-        np.empty(8),
+        np.empty(FRAMES_SIZE),
         np.empty(MAX_CAND),
         np.empty(MAX_CAND, np.int8),
         np.empty(WS_SIZE),
+        np.empty((MAX_SUB, 2)),
+        printed_scratch(n_pieces),
     )
 
 
 @nb.njit(**JIT)
-def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi_used):
+def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi_used, mdl):
     """Every 5-DoF solution range of one target.
 
     Returns the number of ranges found (rows beyond ``out_q.shape[0]`` are not stored),
     or -1 if an internal interval buffer overflowed. When ``e`` is vertical, L may take
     any azimuth: the first azimuth with a solution, going out from ``psi_vertical`` in
     steps of VERTICAL_STEP, is used. The azimuth of d = +1 goes to ``psi_used[0]``.
+
+    ``mdl`` is the collision model, one flat tuple (numba's parallel loops take no nested
+    tuples): paper, then the envelopes as ``handarm.collision.kernel_env`` gives them
+    (``mdl[1:7]``: pi, pf, groups, lp_groups, rows, clearance), their motion coefficients,
+    the narrowest range counted.
     """
-    work = _workspace(lower, upper)
-    return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work)
+    work = _workspace(lower, upper, mdl[1].shape[0])
+    return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl)
 
 
 @nb.njit(**JIT)
-def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work):
+def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl):
     if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
         psi_used[0] = math.atan2(e[1], e[0])
-        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work)
+        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work, mdl)
     # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
     n_steps = int(math.ceil(0.5 * PI / VERTICAL_STEP))
     for k in range(2 * n_steps + 1):
         off = ((k + 1) // 2) * VERTICAL_STEP * (1.0 if k % 2 == 1 else -1.0)
         psi = wrap(psi_vertical + off)
-        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work)
+        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work, mdl)
         if n != 0:
             psi_used[0] = psi
             return n
@@ -186,10 +207,22 @@ def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, w
 
 
 @nb.njit(**JIT)
-def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt):
+def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, paper):
     """Both sub-problems valid at u (the classification's own predicate)."""
     return canonical_valid(
-        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[0], a[1], a[2], a[3], lb, math.atan2(dy, dx)
+        fr[0],
+        fr[1],
+        dx,
+        dy,
+        u - fr[2],
+        elbow_b,
+        a[0],
+        a[1],
+        a[2],
+        a[3],
+        lb,
+        math.atan2(dy, dx),
+        paper,
     ) and canonical_valid(
         fr[3],
         fr[4],
@@ -203,11 +236,12 @@ def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt):
         a[3],
         lt,
         math.atan2(fr[6], fr[5]),
+        paper,
     )
 
 
 @nb.njit(**JIT)
-def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
+def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc):
     """Configuration at the range's midpoint into q; returns False if none is usable.
 
     Where a constraint only touches its bound inside a range (a tangency: valid on both
@@ -219,9 +253,10 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
     for attempt in range(13):
         u = lo + frac * (hi - lo)
         if _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, q) and _valid_at(
-            fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt
+            fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, mdl[0]
         ):
-            return True
+            if mdl[0] or free_at(q, u, a, mdl[1:7], mdl[7], sc[3], sc[4], sc[5], sc[6]):
+                return True
         # 0.5, 0.25, 0.75, 0.125, 0.875, ...
         if attempt % 2 == 0:
             frac = 0.5 - step
@@ -232,8 +267,10 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
 
 
 @nb.njit(**JIT)
-def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
-    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws = work
+def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
+    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sc = work
+    paper = mdl[0]
+    min_width = mdl[8]
     cap = out_q.shape[0]
     hx, hy = e[0], e[1]
     hn = math.sqrt(hx * hx + hy * hy)
@@ -273,6 +310,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
             buf,
             tags,
             ws,
+            paper,
         )
         if cnt_b[0] + cnt_b[1] == 0:
             continue
@@ -297,6 +335,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
             buf,
             tags,
             ws,
+            paper,
         )
         overflow = overflow or not (ok1 and ok2)
         for eb in range(2):
@@ -315,15 +354,30 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
                     hi = min(b_hi, t_hi)
                     if lo < hi:
                         elbow_b = 1.0 if eb == 0 else -1.0
-                        if _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q):
+                        if paper:
+                            sub[0, 0], sub[0, 1] = lo, hi
+                            n_sub = 1
+                        else:
+                            n_sub = printed_ranges(
+                                fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, sc, sub, 0
+                            )
+                            if n_sub < 0:
+                                overflow = True
+                                n_sub = 0
+                        for k_sub in range(n_sub):
+                            r_lo, r_hi = sub[k_sub, 0], sub[k_sub, 1]
+                            if r_hi - r_lo < min_width or not _representative(
+                                fr, dx, dy, r_lo, r_hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc
+                            ):
+                                continue
                             if total < cap:
                                 for k in range(6):
                                     out_q[total, k] = q[k]
                                 out_br[total, 0] = int(sgn)
                                 out_br[total, 1] = int(elbow_b)
                                 out_br[total, 2] = int(elbow_e)
-                                out_iv[total, 0] = lo
-                                out_iv[total, 1] = hi
+                                out_iv[total, 0] = r_lo
+                                out_iv[total, 1] = r_hi
                             total += 1
                     if b_hi < t_hi:
                         i += 1
@@ -335,7 +389,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work):
 
 
 @nb.njit(parallel=True, **JIT)
-def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, counts, psi_used):
+def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, counts, psi_used, mdl):
     """solve_target over rows, in parallel; rows beyond capacity are counted, not stored.
 
     Rows go in blocks so that each block allocates its scratch space once.
@@ -344,7 +398,7 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
     block = 256
     n_blocks = (n + block - 1) // block
     for b in nb.prange(n_blocks):
-        work = _workspace(lower, upper)
+        work = _workspace(lower, upper, mdl[1].shape[0])
         for i in range(b * block, min(n, (b + 1) * block)):
             counts[i] = _solve_any_azimuth(
                 P[i],
@@ -356,6 +410,7 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
                 out_iv[i],
                 psi_used[i : i + 1],
                 work,
+                mdl,
             )
             # pad the unused rows here: the caller's arrays are left uninitialised
             for r in range(max(counts[i], 0), out_q.shape[1]):
@@ -370,26 +425,28 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
 @nb.njit(**JIT)
 def configurations_along_u(p, e, dx, dy, us, elbow_b, elbow_e, a, out, ok):
     """configuration_at_u for many u of one branch."""
-    fr = np.empty(8)
+    fr = np.empty(FRAMES_SIZE)
     _frames(p, e, dx, dy, a, fr)
     for i in range(us.shape[0]):
         ok[i] = _configuration(fr, dx, dy, us[i], elbow_b, elbow_e, a, out[i])
 
 
 @nb.njit(parallel=True, **JIT)
-def count_many(P, E, psi_vertical, a, lower, upper, counts):
+def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
     """Number of solution ranges of each target, without storing them (workspace maps)."""
     n = P.shape[0]
     block = 256
     n_blocks = (n + block - 1) // block
     for b in nb.prange(n_blocks):
-        work = _workspace(lower, upper)
+        work = _workspace(lower, upper, mdl[1].shape[0])
         q = np.empty((_COUNT_CAP, 6))
         br = np.empty((_COUNT_CAP, 3), np.int8)
         iv = np.empty((_COUNT_CAP, 2))
         used = np.empty(1)
         for i in range(b * block, min(n, (b + 1) * block)):
-            counts[i] = _solve_any_azimuth(P[i], E[i], psi_vertical[i], a, q, br, iv, used, work)
+            counts[i] = _solve_any_azimuth(
+                P[i], E[i], psi_vertical[i], a, q, br, iv, used, work, mdl
+            )
 
 
 _COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardless

@@ -10,11 +10,13 @@ representative solution.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from handarm._checks import check_array, check_design, check_joints
+from handarm.collision import kernel_env, motion_coefficients
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
 from handarm.ik._common import VERTICAL_EPS, wrap
@@ -166,13 +168,36 @@ def follow_configuration(
     return best
 
 
+def _model(design: ArmDesign, min_width: float = 0.0) -> tuple:
+    """The collision model as the kernels take it (see ``_solve.solve_target``).
+
+    Under the paper's model the envelope arrays are not read; the default design's are
+    passed so that both models share one compiled kernel.
+    """
+    paper = design.collision_model == "paper"
+    source = _DEFAULT_SHAPES if paper else design
+    return (paper, *kernel_env(source), _coefficients(source), float(min_width))
+
+
+_DEFAULT_SHAPES = ArmDesign()
+
+
+@functools.lru_cache(maxsize=64)
+def _coefficients(design: ArmDesign) -> np.ndarray:
+    coef = motion_coefficients(design)
+    coef.flags.writeable = False
+    return coef
+
+
 def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):
     cap = _SINGLE_CAPACITY
     q = np.empty((cap, 6))
     br = np.empty((cap, 3), np.int8)
     iv = np.empty((cap, 2))
     used = np.empty(1)
-    n = K.solve_target(p, e, azimuth, design.lengths, design.lower, design.upper, q, br, iv, used)
+    n = K.solve_target(
+        p, e, azimuth, design.lengths, design.lower, design.upper, q, br, iv, used, _model(design)
+    )
     if n < 0 or n > cap:
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
     return q[:n].copy(), br[:n].astype(int), iv[:n].copy(), float(used[0])
@@ -204,8 +229,16 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     BatchResult
         Vertical directions are handled as in ``solve`` without ``current``. No
         degradation: a target without a 5-DoF solution has count 0.
+
+    Raises
+    ------
+    ValueError
+        If the targets are malformed or ``chunk`` is not an integer >= 1.
     """
+    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
+        raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
     P, E, psi = _check_batch(design, P, E)
+    model = _model(design)
     n = len(P)
     counts = np.zeros(n, np.int64)
     # the kernel fills every row (solutions, then NaN padding): no second pass over memory
@@ -230,6 +263,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
             iv[sl],
             counts[sl],
             used[sl],
+            model,
         )
     if np.any(counts < 0):
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
@@ -259,13 +293,41 @@ def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
         )
 
 
-def count_solutions(design: ArmDesign, P, E, *, chunk: int = 1 << 20) -> np.ndarray:
+def count_solutions(
+    design: ArmDesign, P, E, *, chunk: int = 1 << 20, min_width: float = 0.0
+) -> np.ndarray:
     """Number of 5-DoF solution ranges of each of N targets, shape (N,).
 
     The same answer as ``solve_batch(...).counts`` without storing any solution, so that
     millions of targets (workspace maps) run in little memory.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    P, E : array-like, shape (N, 3)
+        Tool points (m) and directions.
+    chunk : int
+        Targets per parallel call (>= 1).
+    min_width : float
+        Ranges narrower than this (m of u) are not counted: a printed arm cannot hold a
+        range a few nanometres wide (a stretched tip pointing straight up, say).
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+
+    Raises
+    ------
+    ValueError
+        If the targets are malformed, ``chunk < 1`` or ``min_width`` is negative or not
+        finite.
     """
+    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
+        raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
+    if not (math.isfinite(min_width) and min_width >= 0.0):
+        raise ValueError(f"min_width: expected a finite number >= 0 (m), got {min_width!r}")
     P, E, psi = _check_batch(design, P, E)
+    model = _model(design, min_width)
     n = len(P)
     counts = np.zeros(n, np.int64)
     for s in range(0, n, chunk):
@@ -278,6 +340,7 @@ def count_solutions(design: ArmDesign, P, E, *, chunk: int = 1 << 20) -> np.ndar
             design.lower,
             design.upper,
             counts[sl],
+            model,
         )
     if np.any(counts < 0):
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")

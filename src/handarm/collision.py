@@ -1,0 +1,424 @@
+"""The printed-link collision model: conservative envelopes of the links the build prints.
+
+Every link is described once, by the convex prism Parts of ``handarm.links``. Each Part is
+covered by a *slab stadium*: a segment in the plane of its joint frame grown by a radius (a
+stadium, which contains the Part's polygon) times the Part's range along the joint axle.
+Parts of one link in one frame are merged where the merged cover is no larger than the two
+covers it replaces. Carving only removes material from the Parts, so the envelope of a link
+contains its carved mesh (a test checks this against the meshes of several designs).
+
+Links l0-l2 and the proximal part of l3 lie in the base plane (their axles are vertical);
+the distal part of l3 (its fork at joint 4) and l4-l6 lie in the tip plane, which contains
+l3's line L and the vertical. Two pieces in the same plane collide when their segments come
+closer than the sum of their radii and the clearance, and their slabs overlap. A base piece
+and a tip piece collide when, along L, the stretch of the base piece inside the tip piece's
+slab overlaps the stretch of the tip piece inside the base piece's slab (each stretch is
+grown by its radius, so the test contains the true intersection of the two solids).
+
+``is_valid(design, q)`` uses this model when ``design.collision_model == "printed"`` (the
+default); ``"paper"`` keeps the paper's zero-thickness segments. All 15 non-adjacent link
+pairs are checked; adjacent pairs are governed by the joint limits, which carving makes
+collision-free.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import itertools
+import math
+
+import numpy as np
+
+from handarm.design import ArmDesign
+from handarm.links import link_blank
+
+__all__ = [
+    "LINK_PAIRS",
+    "Envelopes",
+    "Piece",
+    "collision_free",
+    "envelopes",
+    "printed_collisions",
+    "stadium_cover",
+]
+
+#: The 15 non-adjacent link pairs, (a, b) with a < b; index into ``colliding_pairs``' output.
+LINK_PAIRS = tuple((a, b) for a, b in itertools.combinations(range(7), 2) if b - a > 1)
+
+BASE, TIP = 0, 1
+#: Merge two pieces of one frame when the merged cover is at most this times the larger.
+_MERGE = 1.1
+_MM = 1e-3
+
+
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
+class Piece:
+    """One slab stadium of a link's envelope (SI units).
+
+    Attributes
+    ----------
+    link : int
+        Link index 0..6.
+    frame : int
+        0: the link's proximal joint frame (the base frame for l0); 1: its distal joint frame.
+    plane : int
+        0: base plane (axle vertical), 1: tip plane.
+    segment : ndarray, shape (2, 2)
+        Segment endpoints in the frame's x, y (m).
+    radius : float
+        Stadium radius (m).
+    z : tuple of float
+        Slab range along the frame's z axis, the joint axle (m).
+    parts : tuple of str
+        Names of the link Parts this piece covers.
+    """
+
+    link: int
+    frame: int
+    plane: int
+    segment: np.ndarray
+    radius: float
+    z: tuple[float, float]
+    parts: tuple[str, ...]
+
+    @property
+    def area(self) -> float:
+        """Area of the stadium (m^2): the piece's footprint in its plane."""
+        length = float(np.linalg.norm(self.segment[1] - self.segment[0]))
+        return 2.0 * self.radius * length + math.pi * self.radius**2
+
+    @property
+    def volume(self) -> float:
+        """Volume of the slab stadium (m^3)."""
+        length = float(np.linalg.norm(self.segment[1] - self.segment[0]))
+        area = 2.0 * self.radius * length + math.pi * self.radius**2
+        return area * (self.z[1] - self.z[0])
+
+
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
+class Envelopes:
+    """The envelope pieces of a design's seven links, with the arrays the kernels read.
+
+    Attributes
+    ----------
+    pieces : tuple of Piece
+    link, frame, plane : ndarray of int, shape (n,)
+    seg : ndarray, shape (n, 4)
+        x0, y0, x1, y1 of each piece's segment in its frame (m).
+    radius : ndarray, shape (n,)
+    z : ndarray, shape (n, 2)
+    sphere : ndarray, shape (n,)
+        Radius of each piece's bounding sphere, centred on the middle of its segment and
+        slab.
+    rows : ndarray of int, shape (m, 2)
+        Every piece pair that can collide: pieces of non-adjacent links, except pieces in one
+        plane whose slabs are farther apart than the clearance; grouped by ``groups``.
+    groups : ndarray of int, shape (g, 4)
+        Per group: two bounding pieces (each contains every piece of one side of a link, a
+        side being the pieces of one joint frame; a side of one piece is its own bounding
+        piece) and the range of ``rows`` pairing pieces of those two sides. A group whose
+        bounding pieces are apart is apart; a group with an empty range is the one pair of
+        its bounding pieces.
+    lp_groups : ndarray of int, shape (15, 2)
+        The range of ``groups`` of each link pair of ``LINK_PAIRS``.
+    pieces_count : int
+        Pieces ``0 .. pieces_count - 1`` are the envelope; the rest are bounding pieces.
+    clearance : float
+        The design's clearance (m), added to every test.
+    pi, pf : ndarray
+        The same packed for the kernels: (n, 3) link, frame, plane; (n, 8) segment, radius,
+        z, sphere radius.
+    """
+
+    pieces: tuple[Piece, ...]
+    link: np.ndarray
+    frame: np.ndarray
+    plane: np.ndarray
+    seg: np.ndarray
+    radius: np.ndarray
+    z: np.ndarray
+    sphere: np.ndarray
+    rows: np.ndarray
+    groups: np.ndarray
+    lp_groups: np.ndarray
+    pieces_count: int
+    clearance: float
+    pi: np.ndarray
+    pf: np.ndarray
+
+
+def _plane(link: int, frame: int) -> int:
+    return BASE if link <= 2 or (link == 3 and frame == 0) else TIP
+
+
+def _dist_to_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    den = float(ab @ ab)
+    t = np.zeros(len(points)) if den == 0.0 else np.clip((points - a) @ ab / den, 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * ab), axis=1)
+
+
+def stadium_cover(points) -> tuple[np.ndarray, float]:
+    """A stadium (segment grown by a radius) containing the points, of small area.
+
+    Parameters
+    ----------
+    points : array-like, shape (n, 2)
+        Vertices of a convex polygon (any unit).
+
+    Returns
+    -------
+    segment : ndarray, shape (2, 2)
+    radius : float
+        Every point lies within ``radius`` of the segment (so the polygon does).
+
+    Notes
+    -----
+    Points that all lie about as far from their centre (a disk's polygon) get a point and
+    that distance. Otherwise the candidate axes are the principal axis and the four longest
+    edges; along each, the segment runs across the middle of the polygon and its ends are
+    found by a grid search refined three times. A rectangle gets its exact cover: the
+    segment along its long middle line, the radius half its width.
+    """
+    pts = np.asarray(points, dtype=float)
+    centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+    x = pts - centre
+    dist = np.linalg.norm(x, axis=1)
+    spread = float(dist.max())
+    if spread == 0.0 or (len(pts) >= 12 and dist.min() > 0.98 * spread):
+        seg = np.array([centre, centre])
+        return seg, spread * (1.0 + 1e-12)
+    dirs = [np.linalg.eigh(x.T @ x)[1][:, -1]]
+    edges = np.roll(pts, -1, axis=0) - pts
+    lengths = np.linalg.norm(edges, axis=1)
+    for i in np.argsort(-lengths)[:4]:
+        if lengths[i] > 1e-9 * spread:
+            dirs.append(edges[i] / lengths[i])
+    best = (math.inf, None, None)
+    for axis in dirs:
+        perp = np.array([-axis[1], axis[0]])
+        along, across = x @ axis, x @ perp
+        base = centre + 0.5 * (across.max() + across.min()) * perp
+        lo, hi = float(along.min()), float(along.max())
+        mid = 0.5 * (lo + hi)
+        r0, r1 = (lo, mid), (mid, hi)
+        for _ in range(3):
+            s0, s1 = np.meshgrid(np.linspace(*r0, 7), np.linspace(*r1, 7), indexing="ij")
+            s0, s1 = s0.ravel(), s1.ravel()
+            # distance of every point to every candidate segment [s0, s1] along the axis
+            t = np.clip(along[None, :], s0[:, None], s1[:, None])
+            r = np.sqrt((along[None, :] - t) ** 2 + (across[None, :] - (base - centre) @ perp) ** 2)
+            r = r.max(axis=1)
+            area = 2.0 * r * (s1 - s0) + math.pi * r * r
+            k = int(np.argmin(area))
+            if area[k] < best[0]:
+                best = (float(area[k]), base + s0[k] * axis, base + s1[k] * axis)
+            h0, h1 = (r0[1] - r0[0]) / 6, (r1[1] - r1[0]) / 6
+            r0 = (max(lo, s0[k] - h0), min(mid, s0[k] + h0))
+            r1 = (max(mid, s1[k] - h1), min(hi, s1[k] + h1))
+    _, a, b = best
+    r = float(_dist_to_segment(pts, a, b).max())
+    return np.array([a, b]), r * (1.0 + 1e-12) + 1e-12 * spread
+
+
+def _piece(link, frame, verts, z, names) -> tuple[Piece, np.ndarray]:
+    seg, r = stadium_cover(verts)
+    piece = Piece(
+        link, frame, _plane(link, frame), seg * _MM, r * _MM, (z[0] * _MM, z[1] * _MM), names
+    )
+    return piece, verts
+
+
+def _link_pieces(design: ArmDesign, k: int) -> list[Piece]:
+    blank = link_blank(design, k)
+    todo = []
+    for part in blank.parts:
+        frame = 0 if (part.frame == "prox" or blank.dist_from_prox is None) else 1
+        verts = np.asarray(part.polygon, dtype=float)
+        todo.append(_piece(k, frame, verts, (part.z0, part.z1), (part.name,)))
+    # merge two pieces of one frame where the merged cover is hardly larger than the larger
+    # of the two (a cheek inside its plate's cover): fewer pieces, no looser envelope
+    while True:
+        best = None
+        for (i, (pa, va)), (j, (pb, vb)) in itertools.combinations(enumerate(todo), 2):
+            if pa.frame != pb.frame:
+                continue
+            z = (min(pa.z[0], pb.z[0]) / _MM, max(pa.z[1], pb.z[1]) / _MM)
+            merged = _piece(k, pa.frame, np.vstack([va, vb]), z, pa.parts + pb.parts)
+            ratio = merged[0].area / max(pa.area, pb.area)
+            if ratio <= _MERGE and (best is None or ratio < best[0]):
+                best = (ratio, i, j, merged)
+        if best is None:
+            break
+        _, i, j, merged = best
+        todo = [t for n, t in enumerate(todo) if n not in (i, j)] + [merged]
+    return [p for p, _ in todo]
+
+
+@functools.lru_cache(maxsize=64)
+def envelopes(design: ArmDesign) -> Envelopes:
+    """The envelope pieces of the design's links (cached per design).
+
+    Parameters
+    ----------
+    design : ArmDesign
+
+    Returns
+    -------
+    Envelopes
+    """
+    pieces = [p for k in range(7) for p in _link_pieces(design, k)]
+    n = len(pieces)
+    sides = sorted({(p.link, p.frame) for p in pieces})
+    members = {
+        side: [i for i, p in enumerate(pieces) if (p.link, p.frame) == side] for side in sides
+    }
+    # a side of one piece is its own bounding piece
+    bounds, bound_of = [], {}
+    for side in sides:
+        if len(members[side]) == 1:
+            bound_of[side] = members[side][0]
+        else:
+            bound_of[side] = n + len(bounds)
+            bounds.append(_bounding_piece([pieces[i] for i in members[side]]))
+    everything = pieces + bounds
+    link = np.array([p.link for p in everything], np.int64)
+    frame = np.array([p.frame for p in everything], np.int64)
+    plane = np.array([p.plane for p in everything], np.int64)
+    seg = np.array([p.segment.reshape(-1) for p in everything], dtype=float)
+    radius = np.array([p.radius for p in everything], dtype=float)
+    z = np.array([p.z for p in everything], dtype=float)
+    half = 0.5 * np.linalg.norm(seg[:, 2:] - seg[:, :2], axis=1)
+    sphere = np.hypot(half + radius, 0.5 * (z[:, 1] - z[:, 0])) * (1.0 + 1e-12)
+    c = design.clearance
+    rows, groups, lp_groups = [], [], []
+    for la, lb in LINK_PAIRS:
+        first = len(groups)
+        for sa, sb in itertools.product(sides, sides):
+            if sa[0] != la or sb[0] != lb:
+                continue
+            start = len(rows)
+            for i in range(n):
+                if (pieces[i].link, pieces[i].frame) != sa:
+                    continue
+                for j in range(n):
+                    if (pieces[j].link, pieces[j].frame) != sb:
+                        continue
+                    if plane[i] == plane[j] and (z[i, 0] - z[j, 1] >= c or z[j, 0] - z[i, 1] >= c):
+                        continue  # parallel slabs that never come within the clearance
+                    rows.append((i, j))
+            if len(rows) == start:
+                continue
+            if len(rows) == start + 1 and len(members[sa]) == len(members[sb]) == 1:
+                rows.pop()  # one pair of one-piece sides: the group is that pair
+            groups.append((bound_of[sa], bound_of[sb], start, len(rows)))
+        lp_groups.append((first, len(groups)))
+    arrays = [link, frame, plane, seg, radius, z, sphere]
+    arrays += [np.array(x, np.int64).reshape(-1, w) for x, w in ((rows, 2), (groups, 4))]
+    arrays.append(np.array(lp_groups, np.int64))
+    if len(groups) > 63:  # the IK keeps the unsure groups of a stretch in one int64 mask
+        raise ValueError(f"design: {len(groups)} groups of envelope pieces, at most 63 supported")
+    for arr in arrays:
+        arr.flags.writeable = False
+    pi = np.ascontiguousarray(np.stack([link, frame, plane], axis=1))
+    pf = np.ascontiguousarray(np.column_stack([seg, radius, z, sphere]))
+    for arr in (pi, pf):
+        arr.flags.writeable = False
+    return Envelopes(tuple(pieces), *arrays, n, c, pi, pf)
+
+
+def _bounding_piece(side: list[Piece]) -> Piece:
+    """One slab stadium containing every piece of one side (one frame) of a link."""
+    ends = np.concatenate([p.segment for p in side])
+    seg, _ = stadium_cover(ends)
+    r = max(float(_dist_to_segment(p.segment, seg[0], seg[1]).max()) + p.radius for p in side)
+    z = (min(p.z[0] for p in side), max(p.z[1] for p in side))
+    first = side[0]
+    return Piece(first.link, first.frame, first.plane, seg, r * (1 + 1e-12), z, ("bound",))
+
+
+def kernel_env(design: ArmDesign) -> tuple:
+    """The envelopes as the numba kernels take them: (pi, pf, groups, lp_groups, rows, c)."""
+    env = envelopes(design)
+    return (env.pi, env.pf, env.groups, env.lp_groups, env.rows, env.clearance)
+
+
+def collision_free(design: ArmDesign, q) -> np.ndarray:
+    """Whether no two printed links collide, shape (...,) bool (joint limits not checked).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    q : array-like, shape (..., 6)
+        Joint angles (rad).
+
+    Returns
+    -------
+    ndarray of bool, shape (...,)
+        False where the envelopes of a non-adjacent link pair come within the clearance.
+    """
+    from handarm import _collide  # numba: compiled on first use, not at import
+
+    q = np.asarray(q, dtype=float)
+    flat = np.ascontiguousarray(q.reshape(-1, 6))
+    out = np.empty(len(flat), np.bool_)
+    pi, pf, groups, _, rows, c = kernel_env(design)
+    _collide.free_many(flat, design.lengths, pi, pf, groups, rows, c, out)
+    return out.reshape(q.shape[:-1])
+
+
+def printed_collisions(design: ArmDesign, q) -> np.ndarray:
+    """Which of the 15 non-adjacent link pairs (``LINK_PAIRS``) collide, shape (..., 15) bool."""
+    from handarm import _collide
+
+    q = np.asarray(q, dtype=float)
+    flat = np.ascontiguousarray(q.reshape(-1, 6))
+    out = np.empty((len(flat), 15), np.bool_)
+    _collide.colliding_many(flat, design.lengths, *kernel_env(design), out)
+    return out.reshape(q.shape[:-1] + (15,))
+
+
+def motion_coefficients(design: ArmDesign, env: Envelopes | None = None) -> np.ndarray:
+    """How far each piece can move, as coefficients of the chain's motion, shape (n, 2, 5).
+
+    Along one branch of the IK the arm moves with joint 4's coordinate u. Over a stretch of
+    u, let ``du`` be half its length and ``dt1, dt2, ds4, ds5`` the largest change (from the
+    stretch's middle) of the absolute angles of l1, l2 (base plane) and l4, l5 (tip plane),
+    each monotone on the stretch. Every point of piece i then moves at most
+    ``min(coef[i, 0] @ D, coef[i, 1] @ D)`` with ``D = (du, dt1, dt2, ds4, ds5)``: l3 slides
+    along L (|d joint 3| = |d joint 4| = du), l1 and l5 turn about joints fixed in space, l2
+    and l4 move with either of their joints (two bounds, the smaller holds).
+    """
+    env = envelopes(design) if env is None else env
+    a = design.lengths
+    coef = np.zeros((len(env.link), 2, 5))
+    for i in range(len(env.link)):
+        k, f = int(env.link[i]), int(env.frame[i])
+        ends = env.seg[i].reshape(2, 2)
+
+        def reach(offset, ends=ends):
+            return float(np.linalg.norm(ends + np.asarray(offset, float), axis=1).max())
+
+        if k == 1:
+            coef[i, :, 1] = reach((0.0, 0.0)) if f == 0 else reach((a[1], 0.0))
+        elif k == 2:
+            if f == 0:  # origin joint 2 (on l1's arc) or joint 3 (on L)
+                coef[i, 0, 1], coef[i, 0, 2] = a[1], reach((0.0, 0.0))
+                coef[i, 1, 0], coef[i, 1, 2] = 1.0, reach((-a[2], 0.0))
+            else:
+                coef[i, 0, 0], coef[i, 0, 2] = 1.0, reach((0.0, 0.0))
+                coef[i, 1, 1], coef[i, 1, 2] = a[1], reach((a[2], 0.0))
+        elif k == 3:
+            coef[i, :, 0] = 1.0
+        elif k == 4:
+            if f == 0:  # origin joint 4 (on L) or joint 5 (on l5's arc about joint 6)
+                coef[i, 0, 0], coef[i, 0, 3] = 1.0, reach((0.0, 0.0))
+                coef[i, 1, 4], coef[i, 1, 3] = a[5], reach((-a[4], 0.0))
+            else:
+                coef[i, 0, 4], coef[i, 0, 3] = a[5], reach((0.0, 0.0))
+                coef[i, 1, 0], coef[i, 1, 3] = 1.0, reach((a[4], 0.0))
+        elif k == 5:
+            coef[i, :, 4] = reach((-a[5], 0.0)) if f == 0 else reach((0.0, 0.0))
+    coef *= 1.0 + 1e-12
+    return coef

@@ -1,0 +1,344 @@
+"""The printed-link collision model along L: certified valid stretches of u (numba).
+
+On one branch (sign of d, elbow of B, elbow of E) every joint angle is a function of u, the
+coordinate of joint 4 along L. Joint limits and reach are exact events of the canonical
+problems (``_events``); what is left is the printed-link model of ``handarm.collision``,
+which is decided here on the whole arm.
+
+Certification. Over a stretch [ua, ub] of u, with its middle um, every piece of a link moves
+at most ``delta`` from where it is at um, and ``delta`` is bounded from the stretch's ends:
+l3 slides along L by at most (ub - ua) / 2; l1 and l5 turn about joints fixed in space; l2
+and l4 move with one of their joints and turn; the absolute angles of l1, l2, l4 and l5 change
+most, from the middle, at the stretch's ends or where they are stationary (where l2 or l1 is
+perpendicular to L in the base plane, l4 or l5 in the tip plane; these points are found
+exactly), so their largest change is known (``handarm.collision.motion_coefficients``).
+Every test of the model is monotone in the pieces' radii, so:
+
+* if the model finds no contact with every radius grown by its piece's delta, no
+  configuration of the stretch has one (the stretch is free for that link pair);
+* if it finds contact with every radius shrunk by delta, every configuration has one.
+
+A stretch where neither holds is halved, down to ``TOL`` (5e-10 m); a stretch that narrow is
+decided by the model at its middle. So no change of validity wider than ``TOL`` is missed,
+and range ends are exact to ``TOL``. Link pairs proven free on a stretch are not tested again
+inside it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from handarm._collide import N_FRAMES, PLACED, groups_status, new_pose, place_frames, set_frames
+from handarm.ik._common import JIT, MERGE_GAP, wrap
+
+#: Narrowest stretch of u (m) that is halved again; narrower ones are decided at their middle:
+#: no change of validity wider than this is missed.
+TOL = 5e-10
+_STACK = 96
+_MAX_BREAKS = 18
+
+
+@nb.njit(**JIT)
+def _angles_clamped(nx, ny, dx, dy, tau, elbow, b1, b2, psi):
+    """Canonical angles at tau like ``_classify._angles``, with |cos qb| <= 1 + 1e-9 clamped.
+
+    Range ends sit on reach circles, where rounding can put cos qb a hair beyond 1.
+    """
+    px, py = nx + tau * dx, ny + tau * dy
+    r2 = px * px + py * py
+    cb = (r2 - b1 * b1 - b2 * b2) / (2.0 * b1 * b2)
+    if cb > 1.0 + 1e-9 or cb < -1.0 - 1e-9:
+        return False, 0.0, 0.0, 0.0
+    cb = min(1.0, max(-1.0, cb))
+    qb = elbow * math.acos(cb)
+    qa = wrap(math.atan2(py, px) - math.atan2(b2 * math.sin(qb), b1 + b2 * math.cos(qb)))
+    qc = wrap(psi - qa - qb)
+    return True, qa, qb, qc
+
+
+@nb.njit(**JIT)
+def configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out):
+    """Joint angles at u on a branch into ``out``; False if out of reach (see ``_solve``)."""
+    ok, q1, q2, q3 = _angles_clamped(
+        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[1], a[2], math.atan2(dy, dx)
+    )
+    if not ok:
+        return False
+    ok, qa, qb, qc = _angles_clamped(
+        fr[3], fr[4], fr[5], fr[6], -u - fr[7], -elbow_e, a[5], a[4], math.atan2(fr[6], fr[5])
+    )
+    if not ok:
+        return False
+    out[0], out[1], out[2] = q1, q2, q3
+    out[3], out[4], out[5] = -qc, -qb, -qa
+    return True
+
+
+@nb.njit(**JIT)
+def _elbow(px, py, b1, b2, elbow):
+    """Elbow point A of a 2R chain from the origin to P (|A| = b1, |P - A| = b2).
+
+    The elbow sign is that of the angle at A (qb), as in ``_classify._angles``. Returns
+    (ok, ax, ay); points a hair beyond reach (rounding at a range end) are clamped.
+    """
+    rho2 = px * px + py * py
+    rho = math.sqrt(rho2)
+    if rho == 0.0:
+        return False, 0.0, 0.0
+    x = (b1 * b1 - b2 * b2 + rho2) / (2.0 * rho)
+    h2 = b1 * b1 - x * x
+    if h2 < 0.0:
+        if h2 < -1e-9 * b1 * b1:
+            return False, 0.0, 0.0
+        h2 = 0.0
+    y = -elbow * math.sqrt(h2)
+    ux, uy = px / rho, py / rho
+    return True, x * ux - y * uy, x * uy + y * ux
+
+
+@nb.njit(**JIT)
+def pose_frames(fr, dx, dy, u, elbow_b, elbow_e, a, frames):
+    """Place every link frame at u on a branch, with no trigonometry (see ``_collide``).
+
+    Returns (ok, u1x, u1y, u2x, u2y, u4x, u4y, u5x, u5y): the unit directions of l1, l2
+    (base plane) and l4, l5 (tip plane), whose changes bound the motion of the links.
+    """
+    tb = u - fr[2]
+    px, py = fr[0] + tb * dx, fr[1] + tb * dy  # joint 3 (world)
+    ok, ax, ay = _elbow(px, py, a[1], a[2], elbow_b)
+    if not ok:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    u1x, u1y = ax / a[1], ay / a[1]
+    u2x, u2y = (px - ax) / a[2], (py - ay) / a[2]
+    te = -u - fr[7]
+    qx, qy = fr[3] + te * fr[5], fr[4] + te * fr[6]  # joint 4 (tip canonical)
+    ok, bx, by = _elbow(qx, qy, a[5], a[4], -elbow_e)  # joint 5 (tip canonical)
+    if not ok:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    cg, sg, t6s, t6v = fr[8], fr[9], fr[10], fr[11]
+    j5s, j5v = t6s + cg * bx - sg * by, t6v + sg * bx + cg * by
+    u4x, u4y = (j5s - u) / a[4], j5v / a[4]  # joint 4 sits at (u, 0)
+    u5x, u5y = (t6s - j5s) / a[5], (t6v - j5v) / a[5]
+    j4x, j4y = px + a[3] * dx, py + a[3] * dy
+    set_frames(
+        frames,
+        ax,
+        ay,
+        u1x,
+        u1y,
+        u2x,
+        u2y,
+        px,
+        py,
+        dx,
+        dy,
+        j4x - u * dx,
+        j4y - u * dy,
+        u,
+        j5s,
+        j5v,
+        u4x,
+        u4y,
+        u5x,
+        u5y,
+        t6s,
+        t6v,
+        fr[12],
+        fr[13],
+    )
+    return True, u1x, u1y, u2x, u2y, u4x, u4y, u5x, u5y
+
+
+@nb.njit(**JIT)
+def _turn(ax, ay, bx, by):
+    """An upper bound of the angle between two unit vectors (rad), from their chord c.
+
+    The angle is 2 asin(c / 2) <= c / sqrt(1 - c^2 / 4) (asin x <= tan(asin x)).
+    """
+    c2 = (ax - bx) ** 2 + (ay - by) ** 2
+    if c2 >= 3.96:
+        return math.pi
+    return math.sqrt(c2 / (1.0 - 0.25 * c2)) * (1.0 + 1e-12)
+
+
+@nb.njit(**JIT)
+def _stationary(nx, ny, dx, dy, b1, b2, out, n):
+    """The tau where the canonical l1 or l2 is perpendicular to L (an angle is stationary)."""
+    c = -nx * dy + ny * dx  # N.n: every point of L has this coordinate across L
+    for sgn in (-1.0, 1.0):
+        # l2 perpendicular to L: A = P +- b2 n, |A| = b1 -> A.n = c +- b2, tau = A.d
+        w = c + sgn * b2
+        if b1 * b1 >= w * w:
+            r = math.sqrt(b1 * b1 - w * w)
+            out[n] = r
+            out[n + 1] = -r
+            n += 2
+        # l1 perpendicular to L: A = +-b1 n, |P - A| = b2 -> tau = +-sqrt(b2^2 - (c -+ b1)^2)
+        w = c - sgn * b1
+        if b2 * b2 >= w * w:
+            r = math.sqrt(b2 * b2 - w * w)
+            out[n] = r
+            out[n + 1] = -r
+            n += 2
+    return n
+
+
+@nb.njit(**JIT)
+def motion_breaks(fr, dx, dy, a, lo, hi, out):
+    """Sorted u in (lo, hi) where an absolute angle of l1, l2, l4 or l5 is stationary."""
+    tau = np.empty(16)
+    n = _stationary(fr[0], fr[1], dx, dy, a[1], a[2], tau, 0)
+    nb_ = n
+    n = _stationary(fr[3], fr[4], fr[5], fr[6], a[5], a[4], tau, n)
+    m = 0
+    for i in range(n):
+        u = tau[i] + fr[2] if i < nb_ else -(tau[i] + fr[7])
+        if lo < u < hi:
+            out[m] = u
+            m += 1
+    for i in range(1, m):  # insertion sort
+        x = out[i]
+        j = i - 1
+        while j >= 0 and out[j] > x:
+            out[j + 1] = out[j]
+            j -= 1
+        out[j + 1] = x
+    return m
+
+
+@nb.njit(**JIT)
+def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
+    """The printed-link model at one configuration (joint 4 at u along L): no contact."""
+    pi, pf, groups, rows, c = env[0], env[1], env[2], env[4], env[5]
+    place_frames(q, a, u, frames)
+    new_pose(stamp)
+    motion[0] = -1.0  # nothing moves
+    hit, _ = groups_status(
+        (1 << groups.shape[0]) - 1, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
+    )
+    return not hit
+
+
+@nb.njit(**JIT)
+def printed_scratch(n_pieces):
+    """Scratch arrays of ``printed_ranges`` for one solving thread."""
+    return (
+        np.empty((_STACK, 2)),  # stretch ends
+        np.empty((_STACK, 2, 8)),  # link directions at the ends (see ``pose_frames``)
+        np.empty(_STACK, np.int64),  # groups of piece pairs still unsure (bit mask)
+        np.zeros((N_FRAMES, 4)),
+        np.empty((n_pieces, PLACED)),
+        np.zeros(n_pieces + 1, np.int64),
+        np.empty(5),  # motion of the stretch (see ``groups_status``)
+        np.empty((_MAX_BREAKS, 8)),  # link directions where an angle is stationary
+        np.empty(_MAX_BREAKS),
+    )
+
+
+@nb.njit(**JIT)
+def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n_out):
+    """Append to ``out[n_out:]`` the maximal stretches of [lo, hi] free under the model.
+
+    [lo, hi] is a stretch where the joint limits hold on this branch. Stretches closer than
+    MERGE_GAP are one. Returns the new count, or -1 if ``out`` (or the stack) is full.
+    """
+    pi, pf, groups, rows, c, coef = mdl[1], mdl[2], mdl[3], mdl[5], mdl[6], mdl[7]
+    n_groups = groups.shape[0]
+    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch
+    # where an absolute angle is stationary: its largest change over a stretch holding such
+    # a point may be there rather than at the stretch's ends
+    nbk = motion_breaks(fr, dx, dy, a, lo, hi, breaks)
+    for k in range(nbk):
+        ok, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
+            fr, dx, dy, breaks[k], elbow_b, elbow_e, a, frames
+        )
+        if not ok:
+            return -1
+        bv[k, 0], bv[k, 1], bv[k, 2], bv[k, 3] = v0, v1, v2, v3
+        bv[k, 4], bv[k, 5], bv[k, 6], bv[k, 7] = v4, v5, v6, v7
+    open_ = False
+    cur_lo = 0.0
+    cur_hi = 0.0
+    ok = True
+    for end in range(2):
+        ok_e, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
+            fr, dx, dy, lo if end == 0 else hi, elbow_b, elbow_e, a, frames
+        )
+        ok = ok and ok_e
+        st_v[0, end, 0], st_v[0, end, 1], st_v[0, end, 2], st_v[0, end, 3] = v0, v1, v2, v3
+        st_v[0, end, 4], st_v[0, end, 5], st_v[0, end, 6], st_v[0, end, 7] = v4, v5, v6, v7
+    if ok:
+        st_u[0, 0], st_u[0, 1] = lo, hi
+        st_mask[0] = (1 << n_groups) - 1
+        top = 1
+    else:
+        top = 0  # cannot happen inside a reachable stretch; stay safe
+    while top > 0:
+        top -= 1
+        ua, ub, mask = st_u[top, 0], st_u[top, 1], st_mask[top]
+        um = 0.5 * (ua + ub)
+        ok, m0, m1, m2, m3, m4, m5, m6, m7 = pose_frames(
+            fr, dx, dy, um, elbow_b, elbow_e, a, frames
+        )
+        if not ok:
+            continue
+        new_pose(stamp)
+        narrow = ub - ua <= TOL
+        if narrow:
+            motion[0] = -1.0  # decided at the middle
+        else:
+            # the largest turn of l1, l2, l4, l5 from the middle (monotone on the stretch)
+            va, vb = st_v[top, 0], st_v[top, 1]
+            motion[0] = 0.5 * (ub - ua)
+            motion[1] = max(_turn(va[0], va[1], m0, m1), _turn(vb[0], vb[1], m0, m1))
+            motion[2] = max(_turn(va[2], va[3], m2, m3), _turn(vb[2], vb[3], m2, m3))
+            motion[3] = max(_turn(va[4], va[5], m4, m5), _turn(vb[4], vb[5], m4, m5))
+            motion[4] = max(_turn(va[6], va[7], m6, m7), _turn(vb[6], vb[7], m6, m7))
+            for k in range(nbk):
+                if ua < breaks[k] < ub:
+                    w = bv[k]
+                    motion[1] = max(motion[1], _turn(w[0], w[1], m0, m1))
+                    motion[2] = max(motion[2], _turn(w[2], w[3], m2, m3))
+                    motion[3] = max(motion[3], _turn(w[4], w[5], m4, m5))
+                    motion[4] = max(motion[4], _turn(w[6], w[7], m6, m7))
+        hit, unsure = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
+        if hit or (narrow and unsure):
+            continue  # an invalid stretch: the open range (if any) ends before it
+        if unsure == 0:
+            # a free stretch: extend the open range or start one
+            if open_ and ua - cur_hi <= MERGE_GAP:
+                cur_hi = ub
+            else:
+                if open_:
+                    if n_out >= out.shape[0]:
+                        return -1
+                    out[n_out, 0], out[n_out, 1] = cur_lo, cur_hi
+                    n_out += 1
+                open_ = True
+                cur_lo, cur_hi = ua, ub
+            continue
+        if top + 2 > st_u.shape[0]:
+            return -1
+        # the left half above the right half on the stack: stretches come off in order
+        for k in range(8):
+            st_v[top + 1, 0, k] = st_v[top, 0, k]
+        st_v[top + 1, 1, 0], st_v[top + 1, 1, 1] = m0, m1
+        st_v[top + 1, 1, 2], st_v[top + 1, 1, 3] = m2, m3
+        st_v[top + 1, 1, 4], st_v[top + 1, 1, 5] = m4, m5
+        st_v[top + 1, 1, 6], st_v[top + 1, 1, 7] = m6, m7
+        st_u[top + 1, 0], st_u[top + 1, 1] = ua, um
+        st_mask[top + 1] = unsure
+        for k in range(8):
+            st_v[top, 0, k] = st_v[top + 1, 1, k]
+        st_u[top, 0], st_u[top, 1] = um, ub
+        st_mask[top] = unsure
+        top += 2
+    if open_:
+        if n_out >= out.shape[0]:
+            return -1
+        out[n_out, 0], out[n_out, 1] = cur_lo, cur_hi
+        n_out += 1
+    return n_out
