@@ -2,9 +2,11 @@
 
     python benchmarks/bench_ik.py [--targets 2000] [--batch 200000] [--peer-targets 200]
 
-Targets are forward kinematics of random valid configurations of the paper's arm. A peer
+Targets are forward kinematics of random valid configurations of the paper's arm (valid
+under the printed-link collision model, the default; the paper's segment model is measured
+on the same targets beside it). A peer
 succeeds on a target when it returns a configuration that reaches it (1e-6 m, 1e-5 rad)
-and passes handarm.is_valid (joint limits and link crossings). Peers: ikpy
+and passes handarm.is_valid (joint limits and the printed-link model). Peers: ikpy
 (orientation_mode "X"), scipy least_squares with joint bounds and random restarts, and
 EAIK with joint 3 locked and swept (when EAIK is installed). Prints one table; times are
 medians of repeated runs, ratios are peer time / handarm time.
@@ -13,6 +15,7 @@ medians of repeated runs, ratios are peer time / handarm time.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import tempfile
 import time
@@ -65,8 +68,14 @@ def bench_handarm(design, P, E, batch_n):
             b = ik.solve_batch(design, BP, BE)
             runs.append(time.perf_counter() - t)
         rates[threads] = batch_n / np.median(runs)
+    count_runs = []
+    for _ in range(3):
+        t = time.perf_counter()
+        ik.count_solutions(design, BP, BE)
+        count_runs.append(time.perf_counter() - t)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
     return {
+        "count_rate": batch_n / np.median(count_runs),
         "p50": np.median(lat),
         "p99": np.percentile(lat, 99),
         "rates": rates,
@@ -193,7 +202,18 @@ def main():
     pp, pe = P[: args.peer_targets], E[: args.peer_targets]
     us = 1e6
     h = bench_handarm(design, P, E, args.batch)
-    rows = [("handarm solve (all ranges)", h["p50"] * us, h["p99"] * us, h["success"], "1.0")]
+    paper_design = dataclasses.replace(design, collision_model="paper")
+    hp = bench_handarm(paper_design, P, E, args.batch)
+    rows = [
+        ("handarm solve, printed-link model", h["p50"] * us, h["p99"] * us, h["success"], "1.0"),
+        (
+            "handarm solve, paper's segment model",
+            hp["p50"] * us,
+            hp["p99"] * us,
+            hp["success"],
+            f"{hp['p50'] / h['p50']:.2f}x",
+        ),
+    ]
     ikpy = bench_ikpy(design, pp, pe)
     rows.append(
         (
@@ -240,15 +260,22 @@ def main():
             f"{name:<40} {_cell(p50, 10, '.1f')} {_cell(p99, 10, '.1f')} "
             f"{_cell(succ, 8, '.1%')}  {ratio}"
         )
+    print(f"\n{'throughput (median of 3)':<40} {'printed':>14} {'paper':>14} {'paper/printed':>14}")
     for threads, rate in h["rates"].items():
+        other = hp["rates"][threads]
         print(
-            f"handarm solve_batch, {threads} thread(s): {rate:,.0f} targets/s "
-            f"({args.batch} targets, median of 3)"
+            f"{f'solve_batch, {threads} thread(s), targets/s':<40} {rate:>14,.0f} {other:>14,.0f} "
+            f"{other / rate:>14.2f}"
         )
     print(
-        f"handarm: mean solution ranges per target {h['mean_solutions']:.2f}; "
-        f"batch success {h['batch_success']:.1%}"
+        f"{'count_solutions, all threads, queries/s':<40} {h['count_rate']:>14,.0f} "
+        f"{hp['count_rate']:>14,.0f} {hp['count_rate'] / h['count_rate']:>14.2f}"
     )
+    for name, r in (("printed", h), ("paper", hp)):
+        print(
+            f"handarm ({name}): mean solution ranges per target {r['mean_solutions']:.2f}; "
+            f"batch success {r['batch_success']:.1%}"
+        )
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from handarm._lazy import lazy_attributes
 from handarm.design import PAPER_LIMITS_DEG, ArmDesign
 from handarm.kinematics import (
+    colliding_pairs,
     forward,
     forward_matrix,
     is_valid,
@@ -26,7 +27,7 @@ from handarm.kinematics import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from handarm import cad_out, carve, firmware_bridge, ik, transmission, workspace
+    from handarm import cad_out, carve, collision, firmware_bridge, ik, transmission, workspace
     from handarm.pipeline import BuildResult, build
 
 __version__ = "0.2.0"
@@ -35,6 +36,7 @@ _SUBMODULES = frozenset(
     {
         "cad_out",
         "carve",
+        "collision",
         "firmware_bridge",
         "ik",
         "kinematics",
@@ -55,6 +57,8 @@ __all__ = [
     "build",
     "cad_out",
     "carve",
+    "colliding_pairs",
+    "collision",
     "firmware_bridge",
     "forward",
     "forward_matrix",

@@ -57,6 +57,6 @@ def test_case7_roots_for_equal_lengths_solve_the_papers_equation():
         tags = np.empty(C.MAX_CAND, np.int8)
         lim = np.array([-3.1, 3.1, -3.1, 3.1, -3.1, 3.1])
         n = EV.canonical_events(
-            nx, ny, dx, dy, b, b, b, b, lim, -1.0, 1.0, buf, tags, np.empty(C.WS_SIZE)
+            nx, ny, dx, dy, b, b, b, b, lim, -1.0, 1.0, buf, tags, np.empty(C.WS_SIZE), True
         )
         assert np.min(np.abs(buf[:n] - t)) < 1e-12

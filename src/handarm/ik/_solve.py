@@ -28,9 +28,10 @@ import math
 import numba as nb
 import numpy as np
 
-from handarm.ik._classify import _angles, canonical_intervals, canonical_valid
+from handarm.ik._classify import canonical_intervals, canonical_valid
 from handarm.ik._common import JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
 from handarm.ik._events import reach_half_width
+from handarm.ik._printed import configuration as _configuration
 from handarm.ik._printed import free_at, printed_ranges, printed_scratch
 
 #: Length of the array ``_frames`` fills.
@@ -88,24 +89,6 @@ def configuration_at_u(p, e, dx, dy, u, elbow_b, elbow_e, a, out):
     fr = np.empty(FRAMES_SIZE)
     _frames(p, e, dx, dy, a, fr)
     return _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out)
-
-
-@nb.njit(**JIT)
-def _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, out):
-    ok, q1, q2, q3 = _angles(
-        fr[0], fr[1], dx, dy, u - fr[2], elbow_b, a[1], a[2], math.atan2(dy, dx)
-    )
-    if not ok:
-        return False
-    # the tip elbow is +1 when q5 >= 0, i.e. qb_canonical <= 0
-    ok, qa, qb, qc = _angles(
-        fr[3], fr[4], fr[5], fr[6], -u - fr[7], -elbow_e, a[5], a[4], math.atan2(fr[6], fr[5])
-    )
-    if not ok:
-        return False
-    out[0], out[1], out[2] = q1, q2, q3
-    out[3], out[4], out[5] = -qc, -qb, -qa
-    return True
 
 
 @nb.njit(**JIT)

@@ -1,0 +1,188 @@
+"""The printed-link collision model against the carved meshes it stands for.
+
+Truth is independent of ``handarm.collision``: the carved link solids, placed by the URDF
+frames, tested pair by pair with python-fcl and measured with manifold3d (``mesh_truth``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import fcl
+import numpy as np
+import pytest
+from manifold3d import CrossSection, Manifold, OpType
+
+import handarm
+from handarm import collision, ik
+from handarm.carve.properties import to_trimesh
+from handarm.carve.sweep import frame_to_link
+from handarm.links import link_blank
+from mesh_truth import PAIRS, MeshArm
+
+
+def other_design(seed: int) -> handarm.ArmDesign:
+    """A legal design with other link lengths, beam, hubs and limits than the paper's."""
+    rng = np.random.default_rng(seed)
+    lim = np.radians(rng.uniform(60, 170, (6, 2)))
+    return handarm.ArmDesign(
+        name=f"other{seed}",
+        link_lengths=rng.uniform(0.03, 0.07, 7),
+        joint_limits=[(-lo, hi) for lo, hi in lim],
+        beam_width=float(rng.uniform(0.008, 0.014)),
+    )
+
+
+DESIGNS = {"paper": handarm.ArmDesign(), "other1": other_design(1), "other2": other_design(2)}
+
+
+@pytest.fixture(scope="module", params=list(DESIGNS))
+def mesh_arm(request):
+    return MeshArm(DESIGNS[request.param], resolution_deg=3.0)
+
+
+def _stadium_prism(piece: collision.Piece, segments: int = 96) -> Manifold:
+    """The piece as a solid (mm), its circles circumscribed so the solid contains the piece."""
+    r = piece.radius * 1e3 / math.cos(math.pi / segments)
+    a, b = piece.segment * 1e3
+    circle = CrossSection.circle(r, segments)
+    cs = CrossSection.batch_hull([circle.translate(tuple(a)), circle.translate(tuple(b))])
+    z0, z1 = (z * 1e3 for z in piece.z)
+    return cs.extrude(z1 - z0).translate([0.0, 0.0, z0])
+
+
+def _envelope_solid(design, k: int) -> Manifold:
+    """Union of link k's envelope pieces, in the link's frame (mm)."""
+    blank = link_blank(design, k)
+    solids = []
+    for piece in collision.envelopes(design).pieces:
+        if piece.link != k:
+            continue
+        m = frame_to_link(blank, "prox" if piece.frame == 0 else "dist")
+        solids.append(_stadium_prism(piece).transform(m[:3, :4].tolist()))
+    return Manifold.batch_boolean(solids, OpType.Add)
+
+
+def test_envelopes_contain_the_carved_links(mesh_arm):
+    design = mesh_arm.design
+    for k, solid in enumerate(mesh_arm.solids):
+        outside = (solid - _envelope_solid(design, k)).volume()
+        assert outside < 1e-6 * solid.volume(), (design.name, k, outside)
+
+
+def test_is_valid_never_accepts_overlapping_printed_links(mesh_arm):
+    """No accepted configuration has two links in contact; few collision-free ones rejected."""
+    design = mesh_arm.design
+    q = np.random.default_rng(3).uniform(design.lower, design.upper, (600, 6))
+    ok = handarm.is_valid(design, q)
+    touching = np.array([bool(mesh_arm.contacts(qi)) for qi in q])
+    assert not np.any(ok & touching), q[ok & touching][:3]
+    # conservative, but not much: the issue's target is 3 % over 20,000 configurations
+    # (benchmarks/bench_collision_model.py); 600 samples get a looser bound
+    free = ~touching
+    assert np.sum(~ok & free) <= 0.06 * np.sum(free)
+
+
+def test_colliding_pairs_name_the_pairs_that_touch(mesh_arm):
+    """Every pair whose meshes overlap by more than 1 mm^3 is among the pairs reported."""
+    design = mesh_arm.design
+    q = np.random.default_rng(4).uniform(design.lower, design.upper, (300, 6))
+    reported = handarm.colliding_pairs(design, q)
+    assert reported.shape == (300, 15)
+    np.testing.assert_array_equal(
+        handarm.is_valid(design, q), ~reported.any(axis=1) & handarm.within_limits(design, q)
+    )
+    for i in range(len(q)):
+        for a, b, _ in mesh_arm.colliding(q[i]):
+            assert reported[i, collision.LINK_PAIRS.index((a, b))], (q[i], a, b)
+
+
+def test_paper_example_is_rejected_and_overlaps():
+    """The issue's example: accepted by the paper's model, l0 and l3 overlap in print."""
+    design = handarm.ArmDesign()
+    q = np.radians([107, 144, -77.7, -117.5, -33.5, 36.2])
+    paper = dataclasses.replace(design, collision_model="paper")
+    assert handarm.is_valid(paper, q)
+    assert not handarm.is_valid(design, q)
+    assert handarm.colliding_pairs(design, q)[collision.LINK_PAIRS.index((0, 3))]
+    arm = MeshArm(design, resolution_deg=3.0)
+    assert arm.overlap_volume(q, 0, 3) > 1000.0
+
+
+def test_paper_model_is_the_segment_model():
+    """collision_model = "paper" keeps the paper's zero-thickness same-plane segments."""
+    design = dataclasses.replace(handarm.ArmDesign(), collision_model="paper")
+    q = np.random.default_rng(5).uniform(design.lower, design.upper, (5000, 6))
+    expected = handarm.within_limits(design, q) & ~handarm.link_crossings(design, q).any(axis=-1)
+    np.testing.assert_array_equal(handarm.is_valid(design, q), expected)
+    # the printed model is stricter: it never accepts what the paper's rejects for crossing
+    printed = handarm.is_valid(handarm.ArmDesign(), q)
+    assert not np.any(printed & ~expected)
+
+
+def _piece_models(design):
+    env = collision.envelopes(design)
+    models = []
+    for piece in env.pieces:
+        mesh = to_trimesh(_stadium_prism(piece, 32))
+        model = fcl.BVHModel()
+        model.beginModel(len(mesh.vertices), len(mesh.faces))
+        model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+        model.endModel()
+        models.append(model)
+    return env, models
+
+
+def test_kernel_never_misses_touching_envelopes():
+    """Wherever two envelope solids intersect (fcl), the kernel reports their link pair."""
+    design = handarm.ArmDesign()
+    env, models = _piece_models(design)
+    arm = MeshArm.__new__(MeshArm)
+    arm.design = design
+    q = np.random.default_rng(6).uniform(design.lower, design.upper, (400, 6))
+    reported = handarm.colliding_pairs(design, q)
+    blanks = [link_blank(design, k) for k in range(7)]
+    request = fcl.CollisionRequest()
+    for i in range(len(q)):
+        tf = MeshArm.transforms(arm, q[i])
+        objs = []
+        for piece, model in zip(env.pieces, models, strict=True):
+            m = tf[piece.link] @ frame_to_link(
+                blanks[piece.link], "prox" if piece.frame == 0 else "dist"
+            )
+            objs.append(fcl.CollisionObject(model, fcl.Transform(m[:3, :3], m[:3, 3])))
+        for x in range(len(objs)):
+            for y in range(x + 1, len(objs)):
+                la, lb = env.pieces[x].link, env.pieces[y].link
+                if abs(la - lb) < 2:
+                    continue
+                if fcl.collide(objs[x], objs[y], request, fcl.CollisionResult()):
+                    pair = (min(la, lb), max(la, lb))
+                    assert reported[i, collision.LINK_PAIRS.index(pair)], (q[i], pair)
+
+
+def test_every_returned_range_is_collision_free_for_the_meshes(mesh_arm):
+    """Representatives and 50 points of every range of 30 targets: no two meshes touch."""
+    design = mesh_arm.design
+    rng = np.random.default_rng(8)
+    q0 = rng.uniform(design.lower, design.upper, (400, 6))
+    q0 = q0[handarm.is_valid(design, q0)][:30]
+    p, e = handarm.forward(design, q0)
+    checked = 0
+    for pi, ei in zip(p, e, strict=True):
+        r = ik.solve(design, pi, ei, degrade=False)
+        assert r.count >= 1
+        for k in range(r.count):
+            lo, hi = r.intervals[k]
+            qs = [r.solutions[k]]
+            for u in np.linspace(lo, hi, 50):
+                qs.append(ik.configuration_at(design, pi, ei, r.branches[k], u, azimuth=r.azimuth))
+            for qk in qs:
+                assert not mesh_arm.contacts(qk), (pi, ei, k, qk)
+                checked += 1
+    assert checked > 30 * 51
+
+
+def test_pairs_are_the_non_adjacent_ones():
+    assert collision.LINK_PAIRS == PAIRS
