@@ -127,12 +127,18 @@ CASES = [
 
 @pytest.mark.parametrize(("pair", "crossing", "clear"), CASES)
 def test_each_pair_crosses_by_hand(loose, pair, crossing, clear):
-    which = handarm.link_crossings(loose, np.radians(crossing))
+    """The paper's segment model (collision_model = "paper"); the printed links collide too."""
+    paper = loose.replace(collision_model="paper")
+    which = handarm.link_crossings(paper, np.radians(crossing))
     expected = np.array([p == pair for p in COLLISION_PAIRS])
     np.testing.assert_array_equal(which, expected)
-    assert not handarm.is_valid(loose, np.radians(crossing))
-    assert not handarm.link_crossings(loose, np.radians(clear)).any()
-    assert handarm.is_valid(loose, np.radians(clear))
+    assert not handarm.is_valid(paper, np.radians(crossing))
+    assert not handarm.link_crossings(paper, np.radians(clear)).any()
+    assert handarm.is_valid(paper, np.radians(clear))
+    # segments that cross lie inside envelopes that overlap
+    a, b = (int(name[1]) for name in pair)
+    printed = handarm.colliding_pairs(loose, np.radians(crossing))
+    assert printed[handarm.collision.LINK_PAIRS.index((min(a, b), max(a, b)))]
 
 
 def test_straight_arm_is_valid(design):

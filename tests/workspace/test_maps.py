@@ -110,3 +110,16 @@ def test_joint_sensitivity_structure(design):
     for j in s["most_sensitive_reachable"]:
         assert s["joints"][j - 1]["reachable_m3_per_deg"] > 0
     json.dumps(s)
+
+
+def test_maps_record_their_collision_model_and_printed_is_stricter(design, coarse, tmp_path):
+    """The printed-link model only removes solutions: no voxel gains reach, none gains ranges."""
+    import dataclasses
+
+    paper = reachability_map(dataclasses.replace(design, collision_model="paper"), 0.03, 40)
+    assert (coarse.collision_model, paper.collision_model) == ("printed", "paper")
+    assert not np.any(coarse.reachable & ~paper.reachable)
+    assert np.all(coarse.index <= paper.index + 1e-12)
+    assert coarse.index.sum() < paper.index.sum()  # the printed links do cost reach
+    with np.load(coarse.save_npz(tmp_path / "m.npz")) as z:
+        assert str(z["collision_model"]) == "printed"

@@ -80,7 +80,8 @@ class ReachabilityMap:
 
     ``index``, ``mean_solutions`` and ``reachable`` have shape (n, n, n) along x, y, z; voxel
     (i, j, k) is centred at ``centres[i], centres[j], centres[k]``. Voxels outside the reach
-    sphere are 0 / False.
+    sphere are 0 / False. ``collision_model`` is the design's model of what collides
+    (``"printed"``: the printed links; ``"paper"``: the paper's segments) that the map used.
     """
 
     voxel: float
@@ -94,6 +95,7 @@ class ReachabilityMap:
     queries: int
     seconds: float
     handle: float = 0.0  # length of l0 (m), for pictures
+    collision_model: str = "printed"  # the design's ``collision_model`` the IK used
 
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
         """Compressed .npz (written atomically)."""
@@ -109,6 +111,7 @@ class ReachabilityMap:
             reach=self.reach,
             mirrored=np.array(self.mirrored),
             handle=self.handle,
+            collision_model=self.collision_model,
         )
         path = Path(path)
         write_bytes_atomic(path, buf.getvalue())
@@ -198,6 +201,7 @@ def reachability_map(
         total,
         seconds,
         float(design.lengths[0]),
+        design.collision_model,
     )
 
 

@@ -38,6 +38,7 @@ def write_workspace_outputs(
     written = [wmap.save_npz(out / "workspace.npz")]
     report = {
         "design": design.name,
+        "collision_model": wmap.collision_model,
         "voxel_m": voxel,
         "directions": len(wmap.directions),
         "mirrored_y_z": list(wmap.mirrored),
