@@ -81,11 +81,11 @@ def _dense_check(design, p, e, n=5000, tol=1e-9):
     return mismatches
 
 
-def test_completeness_by_dense_sampling():
-    """500 targets; 5000 samples of u per branch: no valid u outside a range, none invalid in."""
-    rng = np.random.default_rng(7)
+def _completeness(n_targets, seed):
+    """n targets; 5000 samples of u per branch: no valid u outside a range, none invalid in."""
+    rng = np.random.default_rng(seed)
     bad = []
-    for k in range(500):
+    for k in range(n_targets):
         design = handarm.ArmDesign() if k % 2 == 0 else random_design(rng)
         if k % 3 == 0:  # arbitrary targets, mostly partly reachable
             p, e = rng.uniform(-0.25, 0.25, 3), rng.normal(size=3)
@@ -93,6 +93,31 @@ def test_completeness_by_dense_sampling():
             q = valid_configurations(design, rng, 1)[0]
             p, e = handarm.forward(design, q)
         if _dense_check(design, p, e / np.linalg.norm(e)):
+            bad.append(k)
+    assert not bad
+
+
+def test_completeness_by_dense_sampling():
+    """Printed-link model (the default), paper's arm and random designs."""
+    _completeness(120, 7)
+
+
+@pytest.mark.slow
+def test_completeness_by_dense_sampling_many():
+    _completeness(600, 11)
+
+
+def test_completeness_of_the_paper_model_by_dense_sampling():
+    """collision_model = "paper" stays exact and complete too."""
+    rng = np.random.default_rng(13)
+    bad = []
+    for k in range(60):
+        design = (handarm.ArmDesign() if k % 2 == 0 else random_design(rng)).replace(
+            collision_model="paper"
+        )
+        q = valid_configurations(design, rng, 1)[0]
+        p, e = handarm.forward(design, q)
+        if _dense_check(design, p, e):
             bad.append(k)
     assert not bad
 
