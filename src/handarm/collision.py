@@ -239,13 +239,17 @@ def _link_pieces(design: ArmDesign, k: int) -> list[Piece]:
         todo.append(_piece(k, frame, verts, (part.z0, part.z1), (part.name,)))
     # merge two pieces of one frame where the merged cover is hardly larger than the larger
     # of the two (a cheek inside its plate's cover): fewer pieces, no looser envelope
+    tried = {}  # (parts, parts) -> merged piece: each pair is covered once, not every round
     while True:
         best = None
         for (i, (pa, va)), (j, (pb, vb)) in itertools.combinations(enumerate(todo), 2):
             if pa.frame != pb.frame:
                 continue
-            z = (min(pa.z[0], pb.z[0]) / _MM, max(pa.z[1], pb.z[1]) / _MM)
-            merged = _piece(k, pa.frame, np.vstack([va, vb]), z, pa.parts + pb.parts)
+            key = (pa.parts, pb.parts)
+            if key not in tried:
+                z = (min(pa.z[0], pb.z[0]) / _MM, max(pa.z[1], pb.z[1]) / _MM)
+                tried[key] = _piece(k, pa.frame, np.vstack([va, vb]), z, pa.parts + pb.parts)
+            merged = tried[key]
             ratio = merged[0].area / max(pa.area, pb.area)
             if ratio <= _MERGE and (best is None or ratio < best[0]):
                 best = (ratio, i, j, merged)
