@@ -42,6 +42,7 @@ _SUBMODULES = frozenset(
         "kinematics",
         "links",
         "pipeline",
+        "scene",
         "servo",
         "summary",
         "transmission",

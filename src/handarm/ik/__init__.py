@@ -19,6 +19,7 @@ from handarm.ik.exact import (
     solve_batch_iter,
     solve_exact,
 )
+from handarm.ik.obstacles import solve_in_scene
 from handarm.ik.results import (
     MAX_SOLUTIONS,
     BatchResult,
@@ -41,4 +42,5 @@ __all__ = [
     "solve_batch",
     "solve_batch_iter",
     "solve_exact",
+    "solve_in_scene",
 ]

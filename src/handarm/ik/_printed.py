@@ -210,6 +210,86 @@ def motion_breaks(fr, dx, dy, a, lo, hi, out):
 
 
 @nb.njit(**JIT)
+def stretch_setup(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, frames, st_v, bv, breaks):
+    """Link directions at the stationary points in (lo, hi) and at its ends (stack row 0).
+
+    Returns the number of stationary points, -1 if an end is out of reach (cannot happen
+    inside a reachable stretch), -2 if a stationary point is.
+    """
+    nbk = motion_breaks(fr, dx, dy, a, lo, hi, breaks)
+    for k in range(nbk):
+        ok, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
+            fr, dx, dy, breaks[k], elbow_b, elbow_e, a, frames
+        )
+        if not ok:
+            return -2
+        bv[k, 0], bv[k, 1], bv[k, 2], bv[k, 3] = v0, v1, v2, v3
+        bv[k, 4], bv[k, 5], bv[k, 6], bv[k, 7] = v4, v5, v6, v7
+    ok = True
+    for end in range(2):
+        ok_e, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
+            fr, dx, dy, lo if end == 0 else hi, elbow_b, elbow_e, a, frames
+        )
+        ok = ok and ok_e
+        st_v[0, end, 0], st_v[0, end, 1], st_v[0, end, 2], st_v[0, end, 3] = v0, v1, v2, v3
+        st_v[0, end, 4], st_v[0, end, 5], st_v[0, end, 6], st_v[0, end, 7] = v4, v5, v6, v7
+    return nbk if ok else -1
+
+
+@nb.njit(**JIT)
+def add_free(out, first, n_out, ua, ub):
+    """Record the free stretch [ua, ub]; returns the new count, -1 if ``out`` is full.
+
+    It extends ``out[n_out - 1]`` (if that row is from this call, row ``first`` on) when
+    closer than MERGE_GAP, else it starts a row.
+    """
+    if n_out > first and ua - out[n_out - 1, 1] <= MERGE_GAP:
+        out[n_out - 1, 1] = ub
+        return n_out
+    if n_out >= out.shape[0]:
+        return -1
+    out[n_out, 0], out[n_out, 1] = ua, ub
+    return n_out + 1
+
+
+@nb.njit(**JIT)
+def split_stretch(st_u, st_v, top, ua, um, ub, m0, m1, m2, m3, m4, m5, m6, m7):
+    """Replace stack row ``top`` by its halves, the left one above: they come off in order."""
+    for k in range(8):
+        st_v[top + 1, 0, k] = st_v[top, 0, k]
+    st_v[top + 1, 1, 0], st_v[top + 1, 1, 1] = m0, m1
+    st_v[top + 1, 1, 2], st_v[top + 1, 1, 3] = m2, m3
+    st_v[top + 1, 1, 4], st_v[top + 1, 1, 5] = m4, m5
+    st_v[top + 1, 1, 6], st_v[top + 1, 1, 7] = m6, m7
+    st_u[top + 1, 0], st_u[top + 1, 1] = ua, um
+    for k in range(8):
+        st_v[top, 0, k] = st_v[top + 1, 1, k]
+    st_u[top, 0], st_u[top, 1] = um, ub
+
+
+@nb.njit(**JIT)
+def stretch_motion(st_v, top, ua, ub, m0, m1, m2, m3, m4, m5, m6, m7, breaks, bv, nbk, motion):
+    """``motion`` of the stretch [ua, ub] on the stack at ``top`` (see ``groups_status``).
+
+    The largest turn of l1, l2, l4, l5 from the middle (directions m0..m7), each monotone
+    between the stretch's ends and the stationary points inside it.
+    """
+    va, vb = st_v[top, 0], st_v[top, 1]
+    motion[0] = 0.5 * (ub - ua)
+    motion[1] = max(_turn(va[0], va[1], m0, m1), _turn(vb[0], vb[1], m0, m1))
+    motion[2] = max(_turn(va[2], va[3], m2, m3), _turn(vb[2], vb[3], m2, m3))
+    motion[3] = max(_turn(va[4], va[5], m4, m5), _turn(vb[4], vb[5], m4, m5))
+    motion[4] = max(_turn(va[6], va[7], m6, m7), _turn(vb[6], vb[7], m6, m7))
+    for k in range(nbk):
+        if ua < breaks[k] < ub:
+            w = bv[k]
+            motion[1] = max(motion[1], _turn(w[0], w[1], m0, m1))
+            motion[2] = max(motion[2], _turn(w[2], w[3], m2, m3))
+            motion[3] = max(motion[3], _turn(w[4], w[5], m4, m5))
+            motion[4] = max(motion[4], _turn(w[6], w[7], m6, m7))
+
+
+@nb.njit(**JIT)
 def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
     """The printed-link model at one configuration (joint 4 at u along L): no contact."""
     pi, pf, groups, rows, c = env[0], env[1], env[2], env[4], env[5]
@@ -250,26 +330,11 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
     st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch
     # where an absolute angle is stationary: its largest change over a stretch holding such
     # a point may be there rather than at the stretch's ends
-    nbk = motion_breaks(fr, dx, dy, a, lo, hi, breaks)
-    for k in range(nbk):
-        ok, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
-            fr, dx, dy, breaks[k], elbow_b, elbow_e, a, frames
-        )
-        if not ok:
-            return -1
-        bv[k, 0], bv[k, 1], bv[k, 2], bv[k, 3] = v0, v1, v2, v3
-        bv[k, 4], bv[k, 5], bv[k, 6], bv[k, 7] = v4, v5, v6, v7
-    open_ = False
-    cur_lo = 0.0
-    cur_hi = 0.0
-    ok = True
-    for end in range(2):
-        ok_e, v0, v1, v2, v3, v4, v5, v6, v7 = pose_frames(
-            fr, dx, dy, lo if end == 0 else hi, elbow_b, elbow_e, a, frames
-        )
-        ok = ok and ok_e
-        st_v[0, end, 0], st_v[0, end, 1], st_v[0, end, 2], st_v[0, end, 3] = v0, v1, v2, v3
-        st_v[0, end, 4], st_v[0, end, 5], st_v[0, end, 6], st_v[0, end, 7] = v4, v5, v6, v7
+    nbk = stretch_setup(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, frames, st_v, bv, breaks)
+    if nbk < -1:
+        return -1
+    first = n_out
+    ok = nbk >= 0
     if ok:
         st_u[0, 0], st_u[0, 1] = lo, hi
         st_mask[0] = (1 << n_groups) - 1
@@ -290,55 +355,22 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
         if narrow:
             motion[0] = -1.0  # decided at the middle
         else:
-            # the largest turn of l1, l2, l4, l5 from the middle (monotone on the stretch)
-            va, vb = st_v[top, 0], st_v[top, 1]
-            motion[0] = 0.5 * (ub - ua)
-            motion[1] = max(_turn(va[0], va[1], m0, m1), _turn(vb[0], vb[1], m0, m1))
-            motion[2] = max(_turn(va[2], va[3], m2, m3), _turn(vb[2], vb[3], m2, m3))
-            motion[3] = max(_turn(va[4], va[5], m4, m5), _turn(vb[4], vb[5], m4, m5))
-            motion[4] = max(_turn(va[6], va[7], m6, m7), _turn(vb[6], vb[7], m6, m7))
-            for k in range(nbk):
-                if ua < breaks[k] < ub:
-                    w = bv[k]
-                    motion[1] = max(motion[1], _turn(w[0], w[1], m0, m1))
-                    motion[2] = max(motion[2], _turn(w[2], w[3], m2, m3))
-                    motion[3] = max(motion[3], _turn(w[4], w[5], m4, m5))
-                    motion[4] = max(motion[4], _turn(w[6], w[7], m6, m7))
+            stretch_motion(
+                st_v, top, ua, ub, m0, m1, m2, m3, m4, m5, m6, m7, breaks, bv, nbk, motion
+            )
         hit, unsure = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
         if hit or (narrow and unsure):
             continue  # an invalid stretch: the open range (if any) ends before it
         if unsure == 0:
             # a free stretch: extend the open range or start one
-            if open_ and ua - cur_hi <= MERGE_GAP:
-                cur_hi = ub
-            else:
-                if open_:
-                    if n_out >= out.shape[0]:
-                        return -1
-                    out[n_out, 0], out[n_out, 1] = cur_lo, cur_hi
-                    n_out += 1
-                open_ = True
-                cur_lo, cur_hi = ua, ub
+            n_out = add_free(out, first, n_out, ua, ub)
+            if n_out < 0:
+                return -1
             continue
         if top + 2 > st_u.shape[0]:
             return -1
-        # the left half above the right half on the stack: stretches come off in order
-        for k in range(8):
-            st_v[top + 1, 0, k] = st_v[top, 0, k]
-        st_v[top + 1, 1, 0], st_v[top + 1, 1, 1] = m0, m1
-        st_v[top + 1, 1, 2], st_v[top + 1, 1, 3] = m2, m3
-        st_v[top + 1, 1, 4], st_v[top + 1, 1, 5] = m4, m5
-        st_v[top + 1, 1, 6], st_v[top + 1, 1, 7] = m6, m7
-        st_u[top + 1, 0], st_u[top + 1, 1] = ua, um
+        split_stretch(st_u, st_v, top, ua, um, ub, m0, m1, m2, m3, m4, m5, m6, m7)
         st_mask[top + 1] = unsure
-        for k in range(8):
-            st_v[top, 0, k] = st_v[top + 1, 1, k]
-        st_u[top, 0], st_u[top, 1] = um, ub
         st_mask[top] = unsure
         top += 2
-    if open_:
-        if n_out >= out.shape[0]:
-            return -1
-        out[n_out, 0], out[n_out, 1] = cur_lo, cur_hi
-        n_out += 1
     return n_out

@@ -17,6 +17,8 @@ def solve(
     current=None,
     *,
     degrade: bool = True,
+    scene=None,
+    clearance: float = 0.0,
 ) -> IKResult:
     """Every solution range of the target (p, e), or the closest reachable pose.
 
@@ -33,6 +35,12 @@ def solve(
     degrade : bool
         When no 5-DoF solution exists, return the closest reachable pose (4, 3 or 2 DoF)
         instead of an empty result.
+    scene : handarm.scene.Scene, optional
+        Obstacles in the handle frame: the ranges keep ``clearance`` (m) from them (see
+        ``handarm.ik.obstacles``). With a scene there is no degradation yet: a target whose
+        every solution meets an obstacle gives an empty result naming them in ``blocked_by``.
+    clearance : float
+        Distance (m) kept from the scene's obstacles.
 
     Returns
     -------
@@ -45,6 +53,10 @@ def solve(
     ValueError
         If ``p``, ``e`` or ``current`` has the wrong shape, is not finite, or ``e`` is zero.
     """
+    if scene is not None:
+        from handarm.ik.obstacles import solve_in_scene
+
+        return solve_in_scene(design, p, e, scene, clearance, current)
     p, e, current = check_inputs(design, p, e, current)
     result = _exact(design, p, e, current)
     if result.count or not degrade:

@@ -45,7 +45,14 @@ class IKResult:
         With ``current``: the configuration inside the ranges nearest to it (u of each range
         clamped towards the present one). It moves little when the target moves little,
         which makes it the output to send in a handheld control loop. None without
-        ``current`` or without solutions.
+        ``current`` or without solutions.    clearances : ndarray, shape (k, 2) or None
+        With a scene (``solve(..., scene=...)``): the smallest and largest clearance (m)
+        between the printed links and the obstacles, sampled at 65 points of each range.
+    clearest : ndarray, shape (k,) or None
+        With a scene: the u (m) of each range's largest sampled clearance, where its
+        representative in ``solutions`` sits.
+    blocked_by : tuple of str
+        With a scene and no range left: the obstacles that block the exact solutions.
     """
 
     solutions: np.ndarray
@@ -59,6 +66,9 @@ class IKResult:
     achieved_position: np.ndarray | None = None
     achieved_direction: np.ndarray | None = None
     follow: np.ndarray | None = None
+    clearances: np.ndarray | None = None
+    clearest: np.ndarray | None = None
+    blocked_by: tuple[str, ...] = ()
 
     @property
     def count(self) -> int:

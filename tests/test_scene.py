@@ -1,0 +1,298 @@
+"""Obstacles: the scene model and the IK with a scene, against the carved meshes and fcl."""
+
+from __future__ import annotations
+
+import fcl
+import numpy as np
+import pytest
+import trimesh
+
+import handarm
+from handarm import ik
+from handarm.scene import Scene, rpy_matrix, scene_free, scene_gaps
+from mesh_truth import MeshArm
+
+
+@pytest.fixture(scope="module")
+def design():
+    return handarm.ArmDesign()
+
+
+@pytest.fixture(scope="module")
+def arm(design):
+    return MeshArm(design, resolution_deg=3.0)
+
+
+def random_scene(rng, n=3) -> Scene:
+    """Obstacles of every kind near the arm's workspace."""
+    s = Scene.empty()
+    for _ in range(n):
+        kind = rng.integers(3)
+        c = rng.uniform([-0.05, -0.2, -0.15], [0.25, 0.2, 0.15])
+        if kind == 0:
+            s = s.with_sphere(c, rng.uniform(0.005, 0.03))
+        elif kind == 1:
+            s = s.with_capsule(c, c + rng.normal(size=3) * 0.04, rng.uniform(0.003, 0.015))
+        else:
+            s = s.with_box(rng.uniform(0.01, 0.06, 3), c, rng.uniform(-3, 3, 3))
+    return s
+
+
+def fcl_obstacles(scene: Scene) -> list:
+    """The scene as fcl objects, in millimetres (the meshes' unit)."""
+    objs = []
+    for row in scene.obstacles:
+        kind = int(row[0])
+        if kind == 0:
+            objs.append(
+                fcl.CollisionObject(fcl.Sphere(row[4] * 1e3), fcl.Transform(row[1:4] * 1e3))
+            )
+        elif kind == 1:
+            a, b = row[1:4], row[4:7]
+            axis = b - a
+            length = np.linalg.norm(axis)
+            z = axis / length
+            x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
+            x /= np.linalg.norm(x)
+            rot = np.column_stack([x, np.cross(z, x), z])
+            shape = fcl.Capsule(row[7] * 1e3, length * 1e3)
+            objs.append(fcl.CollisionObject(shape, fcl.Transform(rot, (a + b) / 2 * 1e3)))
+        else:
+            shape = fcl.Box(*(2e3 * row[13:16]))
+            objs.append(
+                fcl.CollisionObject(shape, fcl.Transform(row[4:13].reshape(3, 3), row[1:4] * 1e3))
+            )
+    return objs
+
+
+def mesh_distance(arm: MeshArm, q, obstacles) -> float:
+    """Smallest distance (m) between any carved link and any obstacle (0 on contact)."""
+    tf = arm.transforms(q)
+    best = np.inf
+    for model, t in zip(arm.models, tf, strict=True):
+        link = fcl.CollisionObject(model, fcl.Transform(t[:3, :3], t[:3, 3]))
+        for ob in obstacles:
+            if fcl.collide(link, ob, fcl.CollisionRequest(), fcl.CollisionResult()):
+                return 0.0
+            res = fcl.DistanceResult()
+            best = min(best, fcl.distance(link, ob, fcl.DistanceRequest(), res))
+    return best * 1e-3
+
+
+def test_gaps_never_exceed_the_mesh_distance(design, arm):
+    """The arm model covers the printed links: its gap is at most the true distance."""
+    rng = np.random.default_rng(1)
+    for _ in range(15):
+        scene = random_scene(rng)
+        obstacles = fcl_obstacles(scene)
+        q = rng.uniform(design.lower, design.upper, (20, 6))
+        gaps = scene_gaps(design, q, scene).min(axis=-1)
+        for qi, g in zip(q, gaps, strict=True):
+            assert g <= mesh_distance(arm, qi, obstacles) + 1e-9
+
+
+def test_gap_of_each_shape_against_a_brute_force(design):
+    """Exact distances: a single capsule-covered piece against sampled obstacle surfaces."""
+    from handarm import _scene
+
+    rng = np.random.default_rng(2)
+    for _ in range(80):
+        a, b = rng.normal(size=3) * 0.05, rng.normal(size=3) * 0.05
+        size = rng.uniform(0.01, 0.05, 3)
+        box = Scene.empty().with_box(size, rng.normal(size=3) * 0.05, rng.uniform(-3, 3, 3))
+        row = box.obstacles[0]
+        got = _scene.segment_box(*a, *b, row)
+        # brute force: dense points of the segment against the box (local coordinates)
+        t = np.linspace(0, 1, 4001)[:, None]
+        pts = a + t * (b - a)
+        local = (pts - row[1:4]) @ row[4:13].reshape(3, 3)
+        d = np.linalg.norm(np.maximum(np.abs(local) - row[13:16], 0.0), axis=1)
+        assert got <= d.min() + 1e-12
+        assert got >= d.min() - np.linalg.norm(b - a) / 4000
+        c0, c1 = rng.normal(size=3) * 0.05, rng.normal(size=3) * 0.05
+        got = _scene.segment_segment(*a, *b, *c0, *c1)
+        s = np.linspace(0, 1, 801)
+        p1 = a + s[:, None] * (b - a)
+        p2 = c0 + s[:, None] * (c1 - c0)
+        brute = np.linalg.norm(p1[:, None] - p2[None], axis=-1).min()
+        assert got <= brute + 1e-12
+        assert got >= brute - (np.linalg.norm(b - a) + np.linalg.norm(c1 - c0)) / 800
+
+
+def _inside(lo, hi, n):
+    """n points inside [lo, hi]: range ends are exact to 5e-10 m, not on the valid side."""
+    return lo + (hi - lo) * (np.arange(n) + 0.5) / n
+
+
+def _scene_targets(design, rng, n):
+    q = rng.uniform(design.lower, design.upper, (8 * n, 6))
+    q = q[handarm.is_valid(design, q)][:n]
+    return handarm.forward(design, q), q
+
+
+def _keep_clear(design, arm, n_targets, seed):
+    """Representatives and 50 points of every returned range: no carved link nearer than c."""
+    rng = np.random.default_rng(seed)
+    (P, E), _ = _scene_targets(design, rng, n_targets)
+    checked = 0
+    c = 0.002
+    for k, (p, e) in enumerate(zip(P, E, strict=True)):
+        scene = random_scene(rng, 4)
+        obstacles = fcl_obstacles(scene)
+        r = ik.solve(design, p, e, scene=scene, clearance=c)
+        for j in range(r.count):
+            qs = [r.solutions[j]] + [
+                ik.configuration_at(design, p, e, r.branches[j], u, azimuth=r.azimuth)
+                for u in _inside(*r.intervals[j], 50)
+            ]
+            for q in qs:
+                assert handarm.is_valid(design, q)
+                assert mesh_distance(arm, q, obstacles) >= c - 1e-9, (k, j)
+                checked += 1
+    assert checked > 10 * n_targets
+
+
+def test_ranges_in_a_scene_keep_clear_of_the_meshes(design, arm):
+    _keep_clear(design, arm, 3, 3)
+
+
+@pytest.mark.slow
+def test_ranges_in_a_scene_keep_clear_of_the_meshes_many(design, arm):
+    _keep_clear(design, arm, 30, 33)
+
+
+def test_ranges_in_a_scene_are_complete(design):
+    """Dense u along every exact range: clear points lie in a returned range, others not."""
+    rng = np.random.default_rng(4)
+    (P, E), _ = _scene_targets(design, rng, 16)
+    blocked_some = 0
+    for p, e in zip(P, E, strict=True):
+        scene = random_scene(rng, 4)
+        free = ik.solve(design, p, e, degrade=False)
+        r = ik.solve(design, p, e, scene=scene, clearance=0.001)
+        for br, (lo, hi) in zip(free.branches, free.intervals, strict=True):
+            u = np.linspace(lo, hi, 2000)
+            q, ok = ik.configurations_along(design, p, e, br, u, azimuth=free.azimuth)
+            clear = np.zeros(len(u), bool)
+            clear[ok] = scene_free(design, q[ok], scene, 0.001) & handarm.is_valid(design, q[ok])
+            mine = r.intervals[np.all(r.branches == br, axis=1)]
+            inside = np.zeros(len(u), bool)
+            near = np.zeros(len(u), bool)
+            for a, b in mine:
+                inside |= (u > a) & (u < b)
+                near |= (np.abs(u - a) < 1e-9) | (np.abs(u - b) < 1e-9)
+            assert not np.any((inside != clear) & ~near)
+            blocked_some += int((~clear & ok).any())
+    assert blocked_some > 3  # the scenes do remove something
+
+
+def test_a_target_that_only_collides_names_the_obstacle(design):
+    q0 = np.radians([20, 30, -40, 30, 40, -20])
+    p, e = handarm.forward(design, q0)
+    # a big box around the tool point's approach: every solution passes through it
+    scene = Scene.empty().with_box([0.06, 0.06, 0.06], p - 0.04 * e, name="fixture")
+    r = ik.solve(design, p, e, scene=scene)
+    assert r.count == 0 and r.blocked_by == ("fixture",)
+
+
+def test_world_scene_placed_by_the_handle_pose(design):
+    rng = np.random.default_rng(5)
+    scene = random_scene(rng, 5)
+    pose = np.eye(4)
+    pose[:3, :3] = rpy_matrix([0.3, -0.2, 1.1])
+    pose[:3, 3] = [0.4, -0.1, 0.9]
+    world = Scene(scene.obstacles.copy(), scene.names, "world")
+    # obstacles given in the world: move the handle-frame scene out by the pose first
+    moved = world.in_handle_frame(np.linalg.inv(pose))  # handle -> world coordinates
+    back = Scene(moved.obstacles, moved.names, "world").in_handle_frame(pose)
+    q = rng.uniform(design.lower, design.upper, (50, 6))
+    np.testing.assert_allclose(
+        scene_gaps(design, q, back), scene_gaps(design, q, scene), atol=1e-12
+    )
+    with pytest.raises(ValueError, match="scene: its frame is 'world'"):
+        scene_gaps(design, q, world)
+
+
+def test_scene_file(tmp_path, design):
+    mesh = trimesh.creation.box(extents=(20, 30, 40))
+    mesh.export(tmp_path / "fixture.stl")
+    (tmp_path / "scene.toml").write_text(
+        """
+frame = "handle"
+[[box]]
+size = [0.06, 0.06, 0.06]
+position = [0.12, 0.0, 0.0]
+rpy = [0.0, 0.0, 0.3]
+[[sphere]]
+radius = 0.02
+position = [0.0, 0.15, 0.05]
+[[capsule]]
+radius = 0.01
+ends = [[0.1, -0.1, 0.0], [0.1, 0.1, 0.0]]
+[[mesh]]
+file = "fixture.stl"
+units = "mm"
+position = [0.0, -0.15, 0.0]
+""",
+        encoding="utf-8",
+    )
+    s = Scene.from_toml(tmp_path / "scene.toml")
+    assert len(s) == 4
+    assert s.names == ("box 1", "sphere 1", "capsule 1", "fixture.stl")
+    np.testing.assert_allclose(sorted(2 * s.obstacles[3, 13:16]), [0.02, 0.03, 0.04], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[[box]]\nsize = [0.1, 0.1]\nposition = [0, 0, 0]", r"box\[0\]\.size: expected 3 numbers"),
+        (
+            "[[box]]\nsize = [0.1, -0.1, 0.1]\nposition = [0, 0, 0]",
+            r"box\[0\]\.size: expected positive",
+        ),
+        ("[[sphere]]\nradius = 0.02", r"sphere\[0\]\.position: missing"),
+        (
+            "[[sphere]]\nradius = 'big'\nposition = [0, 0, 0]",
+            r"sphere\[0\]\.radius: expected a number",
+        ),
+        (
+            "[[sphere]]\nradius = inf\nposition = [0, 0, 0]",
+            r"sphere\[0\]\.radius: expected a positive",
+        ),
+        (
+            "[[capsule]]\nradius = 0.01\nends = [[0, 0, 0]]",
+            r"capsule\[0\]\.ends: expected two points",
+        ),
+        ("[[mesh]]\nfile = 'nope.stl'", r"mesh\[0\]\.file: no such file"),
+        ("[[cone]]\nradius = 1", r"scene: unknown key 'cone'"),
+        ("frame = 'moon'", r"frame: expected one of"),
+        (
+            "[[box]]\nsize = [0.1, 0.1, 0.1]\nposition = [0, 0, 0]\ncolour = 'red'",
+            r"box\[0\]: unknown key 'colour'",
+        ),
+    ],
+)
+def test_bad_scene_files_name_the_field(tmp_path, text, message):
+    path = tmp_path / "s.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=message):
+        Scene.from_toml(path)
+
+
+def test_bad_clearance_and_scene_arguments(design):
+    p, e = handarm.forward(design, np.radians([20, 30, -40, 30, 40, -20]))
+    s = Scene.empty().with_sphere([0.5, 0.5, 0.5], 0.01)
+    for bad in (-0.001, float("nan"), "1mm", True):
+        with pytest.raises(ValueError, match="clearance"):
+            ik.solve(design, p, e, scene=s, clearance=bad)
+    with pytest.raises(TypeError, match="scene: expected a handarm.scene.Scene"):
+        ik.solve(design, p, e, scene="box.toml")
+
+
+def test_empty_scene_changes_nothing(design):
+    rng = np.random.default_rng(6)
+    (P, E), _ = _scene_targets(design, rng, 10)
+    for p, e in zip(P, E, strict=True):
+        a = ik.solve(design, p, e, degrade=False)
+        b = ik.solve(design, p, e, scene=Scene.empty())
+        np.testing.assert_array_equal(a.intervals, b.intervals)
