@@ -74,60 +74,63 @@ def segment_segment(p0x, p0y, p0z, p1x, p1y, p1z, q0x, q0y, q0z, q1x, q1y, q1z):
 
 
 @nb.njit(**JIT)
+def _excess(x, h):
+    return x - h if x > h else (x + h if x < -h else 0.0)
+
+
+@nb.njit(**JIT)
+def _box_f(t, a0, a1, a2, d0, d1, d2, h0, h1, h2):
+    """Squared distance from a(t) = a + t d to the box |x_i| <= h_i, and its derivative."""
+    e0 = _excess(a0 + t * d0, h0)
+    e1 = _excess(a1 + t * d1, h1)
+    e2 = _excess(a2 + t * d2, h2)
+    return e0 * e0 + e1 * e1 + e2 * e2, 2.0 * (e0 * d0 + e1 * d1 + e2 * d2)
+
+
+@nb.njit(**JIT)
 def segment_box(ax, ay, az, bx, by, bz, ob):
     """Distance from a segment to a solid box (``ob``: a packed box row, see module doc).
 
-    In the box frame the squared distance of p(t) is sum_i max(|p_i(t)| - h_i, 0)^2, a convex
-    quadratic between the t where some |p_i| crosses h_i; each piece is minimised exactly.
+    In the box frame the squared distance f(t) of p(t) is sum_i max(|p_i(t)| - h_i, 0)^2:
+    convex, with a piecewise linear, non-decreasing derivative whose kinks are where some
+    |p_i| crosses h_i. The kinks on either side of the derivative's zero bound a stretch on
+    which it is linear; its root there is the exact minimiser.
     """
-    pa = np.empty(3)
-    pb = np.empty(3)
+    # box-frame coordinates: p_box[i] = sum_r R[r][i] (p - c)[r], R row-major in ob[4:13]
+    px, py, pz = ax - ob[1], ay - ob[2], az - ob[3]
+    qx, qy, qz = bx - ob[1], by - ob[2], bz - ob[3]
+    a0 = ob[4] * px + ob[7] * py + ob[10] * pz
+    a1 = ob[5] * px + ob[8] * py + ob[11] * pz
+    a2 = ob[6] * px + ob[9] * py + ob[12] * pz
+    d0 = ob[4] * qx + ob[7] * qy + ob[10] * qz - a0
+    d1 = ob[5] * qx + ob[8] * qy + ob[11] * qz - a1
+    d2 = ob[6] * qx + ob[9] * qy + ob[12] * qz - a2
+    h0, h1, h2 = ob[13], ob[14], ob[15]
+    f0, g0 = _box_f(0.0, a0, a1, a2, d0, d1, d2, h0, h1, h2)
+    if g0 >= 0.0:
+        return math.sqrt(f0)
+    f1, g1 = _box_f(1.0, a0, a1, a2, d0, d1, d2, h0, h1, h2)
+    if g1 <= 0.0:
+        return math.sqrt(f1)
+    lo, glo, hi, ghi = 0.0, g0, 1.0, g1
     for i in range(3):
-        r0, r1, r2 = ob[4 + 3 * 0 + i], ob[4 + 3 * 1 + i], ob[4 + 3 * 2 + i]  # column i
-        pa[i] = r0 * (ax - ob[1]) + r1 * (ay - ob[2]) + r2 * (az - ob[3])
-        pb[i] = r0 * (bx - ob[1]) + r1 * (by - ob[2]) + r2 * (bz - ob[3])
-    ts = np.empty(8)
-    n = 0
-    ts[n] = 0.0
-    n += 1
-    for i in range(3):
-        du = pb[i] - pa[i]
-        if du != 0.0:
-            for h in (-ob[13 + i], ob[13 + i]):
-                t = (h - pa[i]) / du
-                if 0.0 < t < 1.0:
-                    ts[n] = t
-                    n += 1
-    ts[n] = 1.0
-    n += 1
-    ts[:n].sort()
-    best = math.inf
-    for k in range(n - 1):
-        t0, t1 = ts[k], ts[k + 1]
-        tm = 0.5 * (t0 + t1)
-        # on (t0, t1) each coordinate is below, inside or above its slab: a quadratic
-        qa = 0.0
-        qb = 0.0
-        qc = 0.0
-        for i in range(3):
-            du = pb[i] - pa[i]
-            x = pa[i] + tm * du
-            h = ob[13 + i]
-            if x > h:
-                c0 = pa[i] - h
-            elif x < -h:
-                c0 = pa[i] + h
-            else:
-                continue
-            qa += du * du
-            qb += 2.0 * du * c0
-            qc += c0 * c0
-        t = t0
-        if qa > 0.0:
-            t = min(t1, max(t0, -qb / (2.0 * qa)))
-        for tt in (t, t0, t1):
-            best = min(best, qa * tt * tt + qb * tt + qc)
-    return math.sqrt(max(best, 0.0))
+        ai = a0 if i == 0 else (a1 if i == 1 else a2)
+        di = d0 if i == 0 else (d1 if i == 1 else d2)
+        hh = h0 if i == 0 else (h1 if i == 1 else h2)
+        if di == 0.0:
+            continue
+        for h in (-hh, hh):
+            t = (h - ai) / di
+            if lo < t < hi:
+                _, g = _box_f(t, a0, a1, a2, d0, d1, d2, h0, h1, h2)
+                if g <= 0.0:
+                    lo, glo = t, g
+                else:
+                    hi, ghi = t, g
+    t = lo - glo * (hi - lo) / (ghi - glo)
+    t = min(hi, max(lo, t))
+    f, _ = _box_f(t, a0, a1, a2, d0, d1, d2, h0, h1, h2)
+    return math.sqrt(max(f, 0.0))
 
 
 @nb.njit(**JIT)

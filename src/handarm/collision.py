@@ -383,6 +383,14 @@ def printed_collisions(design: ArmDesign, q) -> np.ndarray:
     return out.reshape(q.shape[:-1] + (15,))
 
 
+@functools.lru_cache(maxsize=64)
+def kernel_coefficients(design: ArmDesign) -> np.ndarray:
+    """``motion_coefficients`` of the design, cached and read-only, as the kernels take them."""
+    coef = motion_coefficients(design)
+    coef.flags.writeable = False
+    return coef
+
+
 def motion_coefficients(design: ArmDesign, env: Envelopes | None = None) -> np.ndarray:
     """How far each piece can move, as coefficients of the chain's motion, shape (n, 2, 5).
 

@@ -290,10 +290,10 @@ class Scene:
 
 
 def _kernel_args(design: ArmDesign):
-    from handarm.collision import envelopes, motion_coefficients
+    from handarm.collision import envelopes, kernel_coefficients
 
     env = envelopes(design)
-    return env.pi, env.pf, env.pieces_count, motion_coefficients(design)
+    return env.pi, env.pf, env.pieces_count, kernel_coefficients(design)
 
 
 def _check_scene(scene) -> Scene:

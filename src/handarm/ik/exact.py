@@ -10,13 +10,12 @@ representative solution.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
 from handarm._checks import check_array, check_design, check_joints
-from handarm.collision import kernel_env, motion_coefficients
+from handarm.collision import kernel_coefficients, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
 from handarm.ik._common import VERTICAL_EPS, wrap
@@ -176,17 +175,10 @@ def _model(design: ArmDesign, min_width: float = 0.0) -> tuple:
     """
     paper = design.collision_model == "paper"
     source = _DEFAULT_SHAPES if paper else design
-    return (paper, *kernel_env(source), _coefficients(source), float(min_width))
+    return (paper, *kernel_env(source), kernel_coefficients(source), float(min_width))
 
 
 _DEFAULT_SHAPES = ArmDesign()
-
-
-@functools.lru_cache(maxsize=64)
-def _coefficients(design: ArmDesign) -> np.ndarray:
-    coef = motion_coefficients(design)
-    coef.flags.writeable = False
-    return coef
 
 
 def _solve_raw(design: ArmDesign, p: np.ndarray, e: np.ndarray, azimuth: float):

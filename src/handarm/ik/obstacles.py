@@ -5,7 +5,7 @@ design's collision model) and removes from each every stretch of u where a print
 envelope comes within ``clearance`` of an obstacle (``handarm.scene``), certified as the
 printed-link model is (``_obstacles``): no change of clearance sign wider than 5e-10 m of u
 is missed. What remains is returned with, per range, the smallest and largest clearance found
-at 65 evenly spaced points and the u of the largest.
+at 65 evenly spaced points inside it and the u of the largest.
 
 Rules: each range's representative (``solutions``) is its sampled configuration of greatest
 clearance; ``follow`` (with ``current``) is the configuration inside the ranges nearest to
@@ -24,7 +24,6 @@ from handarm.ik import _solve as K
 from handarm.ik._obstacles import clear_ranges, obstacle_scratch
 from handarm.ik.exact import _exact, _line_direction, check_inputs, follow_configuration
 from handarm.ik.results import IKResult
-from handarm.kinematics import is_valid
 from handarm.scene import Scene, _check_scene, _kernel_args, scene_gaps
 
 __all__ = ["solve_in_scene"]
@@ -113,19 +112,16 @@ def solve_in_scene(
         if n < 0:
             raise RuntimeError("solve_in_scene: a range split into more pieces than supported")
         for r_lo, r_hi in sub[:n]:
-            us = np.linspace(r_lo, r_hi, _SAMPLES)
+            # inside the range: its ends are exact to 5e-10 m, not on the valid side
+            us = r_lo + (r_hi - r_lo) * (np.arange(_SAMPLES) + 0.5) / _SAMPLES
             qs = np.empty((_SAMPLES, 6))
-            ok = np.array(
-                [
-                    K.configuration_at_u(p, e, dx, dy, float(u), float(br[1]), float(br[2]), a, qk)
-                    for u, qk in zip(us, qs, strict=True)
-                ]
-            )
+            ok = np.empty(_SAMPLES, np.bool_)
+            K.configurations_along_u(p, e, dx, dy, us, float(br[1]), float(br[2]), a, qs, ok)
             if not ok.any():
                 continue
             gaps = np.full(_SAMPLES, -np.inf)
             gaps[ok] = scene_gaps(design, qs[ok], scene, c).min(axis=-1) + c
-            good = ok & is_valid(design, qs) & (gaps >= c)
+            good = ok & (gaps >= c)  # inside an exact range: valid
             if not good.any():
                 continue  # a merged hair of a range: nothing usable inside
             k = int(np.argmax(np.where(good, gaps, -np.inf)))
@@ -134,10 +130,13 @@ def solve_in_scene(
             ivs.append((r_lo, r_hi))
             cls.append((gaps[ok].min(), gaps[ok].max()))
             best_u.append(us[k])
-        # which obstacles block this exact range at its middle (for the message when none is left)
-        if K.configuration_at_u(p, e, dx, dy, 0.5 * (lo + hi), float(br[1]), float(br[2]), a, q):
-            blocked |= scene_gaps(design, q, scene, c) < 0
     if not sols:
+        # which obstacles block the exact ranges at their middles, for the message
+        for br, (lo, hi) in zip(free.branches, free.intervals, strict=True):
+            dx, dy = _line_direction(p, e, br[0], free.azimuth)
+            u = 0.5 * (lo + hi)
+            if K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+                blocked |= scene_gaps(design, q, scene, c) < 0
         return IKResult(
             np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 5, 0.0, 0.0,
             free.vertical, free.azimuth, p.copy(), e.copy(), None,
