@@ -296,3 +296,28 @@ def test_empty_scene_changes_nothing(design):
         a = ik.solve(design, p, e, degrade=False)
         b = ik.solve(design, p, e, scene=Scene.empty())
         np.testing.assert_array_equal(a.intervals, b.intervals)
+
+
+def test_ik_command_with_a_scene(tmp_path):
+    import subprocess
+    import sys
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[[box]]\nsize = [0.06, 0.06, 0.06]\nposition = [0.12, 0.0, 0.06]\n")
+    base = [sys.executable, "-m", "handarm.cli", "ik", "--pos", "0.2", "0.05", "0.05"]
+    base += ["--dir", "1", "0", "0.3", "--json"]
+    out = subprocess.run(
+        base + ["--scene", str(scene), "--clearance", "2"], capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    import json
+
+    data = json.loads(out.stdout)
+    assert data["solutions"] and all(lo >= 0.002 - 1e-12 for lo, _ in data["clearance_m"])
+    for args, message in (
+        (["--scene", str(tmp_path / "nope.toml")], "--scene: no such file"),
+        (["--scene", str(scene), "--clearance", "-1"], "--clearance: expected 0 to 1000 mm"),
+        (["--clearance", "2"], "--clearance: only with --scene"),
+    ):
+        out = subprocess.run(base + args, capture_output=True, text=True)
+        assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr

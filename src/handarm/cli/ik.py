@@ -7,9 +7,9 @@ import json
 
 import numpy as np
 
-from handarm.cli._common import load_design, option_error
+from handarm.cli._common import UsageError, load_design, option_error
 
-_OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current"}
+_OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current", "clearance": "--clearance"}
 
 
 def cmd_ik(args: argparse.Namespace) -> int:
@@ -18,10 +18,32 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
     design = load_design(args.design)
     current = None if args.current is None else np.radians(args.current)
+    scene = None
+    if args.scene is not None:
+        from handarm.scene import Scene
+
+        try:
+            scene = Scene.from_toml(args.scene)
+        except ValueError as exc:
+            raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
+    elif args.clearance is not None:
+        raise UsageError("--clearance: only with --scene")
+    if args.clearance is not None and not 0.0 <= args.clearance <= 1000.0:
+        raise UsageError(f"--clearance: expected 0 to 1000 mm, got {args.clearance:g}")
     try:
-        result = ik.solve(design, args.pos, args.dir, current=current, degrade=not args.exact)
+        result = ik.solve(
+            design,
+            args.pos,
+            args.dir,
+            current=current,
+            degrade=not args.exact,
+            scene=scene,
+            clearance=0.0 if args.clearance is None else args.clearance * 1e-3,
+        )
     except ValueError as exc:
         raise option_error(exc, _OPTIONS) from None
+    if scene is not None and result.count == 0 and result.blocked_by and not args.json:
+        print(f"no solution keeps clear of: {', '.join(result.blocked_by)}")
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
     else:
@@ -58,5 +80,11 @@ def register(sub) -> None:
         "--current", nargs=6, type=float, metavar="Q", help="present joint angles, degrees"
     )
     p.add_argument("--exact", action="store_true", help="no graceful degradation")
+    p.add_argument(
+        "--scene", metavar="SCENE.toml", help="obstacles (handle frame) the links keep clear of"
+    )
+    p.add_argument(
+        "--clearance", type=float, metavar="MM", help="distance kept from the obstacles, mm"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=cmd_ik)

@@ -97,6 +97,15 @@ class IKResult:
                 for q, br, iv in zip(self.solutions, self.branches, self.intervals, strict=True)
             ],
             "follow_deg": None if self.follow is None else np.degrees(self.follow).tolist(),
+        } | self._scene_dict()
+
+    def _scene_dict(self) -> dict:
+        if self.clearances is None:
+            return {}
+        return {
+            "clearance_m": [[float(lo), float(hi)] for lo, hi in self.clearances],
+            "clearest_u_m": [float(u) for u in self.clearest],
+            "blocked_by": list(self.blocked_by),
         }
 
     def nearest(self, current) -> np.ndarray:
