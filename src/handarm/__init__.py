@@ -40,6 +40,7 @@ _SUBMODULES = frozenset(
         "kinematics",
         "links",
         "pipeline",
+        "report",
         "servo",
         "summary",
         "transmission",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -38,6 +39,9 @@ _UNITS = (
 def unit_of(key: str) -> tuple[str, str]:
     """The label and unit a JSON key names by its suffix: ``mass_kg`` -> ("mass", "kg")."""
     low = key.lower()
+    m = re.fullmatch(r"(.*)_(deg|rad|mm|m)_(\d+)", low)
+    if m:  # a unit before an index: limit_deg_5 -> ("limit 5", "deg")
+        return f"{m.group(1).replace('_', ' ')} {m.group(3)}", m.group(2)
     for suffix, unit in _UNITS:
         if low.endswith(suffix):
             return key[: -len(suffix)].replace("_", " "), unit
