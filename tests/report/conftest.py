@@ -134,6 +134,7 @@ def browser():
 def open_page(drv, path: Path):
     """Load a report from disk; returns the console entries logged while loading."""
     drv.get_log("browser")  # drop what earlier pages logged
+    drv.set_script_timeout(120)  # software WebGL on a busy machine
     drv.get(path.resolve().as_uri())
     drv.execute_async_script(
         "const done = arguments[0];"

@@ -64,8 +64,8 @@ class Page:
 
     def section(self, title: str, anchor: str) -> None:
         """Start a section (a level-2 heading, listed in the navigation bar)."""
-        self._nav.append((anchor, title))
-        self._body.append(f'<h2 id="{anchor}">{html.escape(title)}</h2>')
+        self._nav.append((f"sec-{anchor}", title))  # sec-: never a plot div's id
+        self._body.append(f'<h2 id="sec-{anchor}">{html.escape(title)}</h2>')
 
     def text(self, paragraph: str) -> None:
         """A paragraph of plain text (escaped)."""
