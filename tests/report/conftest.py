@@ -80,25 +80,47 @@ def optimize_dir(tmp_path_factory, build_dir):
     front = {1, 2, 4}
     with (out / "trials.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["trial", "state", *OPT_VARIABLES, *OPT_MEASURED, "feasible", "violated",
-                    "pareto", "error"])
+        w.writerow(
+            [
+                "trial",
+                "state",
+                *OPT_VARIABLES,
+                *OPT_MEASURED,
+                "feasible",
+                "violated",
+                "pareto",
+                "error",
+            ]
+        )
         for t in trials:
-            w.writerow([t[0], "COMPLETE", *t[1:7], t[7], "" if t[7] else "payload",
-                        t[0] in front, ""])
+            w.writerow(
+                [t[0], "COMPLETE", *t[1:7], t[7], "" if t[7] else "payload", t[0] in front, ""]
+            )
     objectives = [
-        {"name": "reach", "key": "reachable_volume_L", "unit": "L", "direction": "maximize",
-         "reference": 0.0},
-        {"name": "mass", "key": "mass_g", "unit": "g", "direction": "minimize",
-         "reference": 100.0},
+        {
+            "name": "reach",
+            "key": "reachable_volume_L",
+            "unit": "L",
+            "direction": "maximize",
+            "reference": 0.0,
+        },
+        {"name": "mass", "key": "mass_g", "unit": "g", "direction": "minimize", "reference": 100.0},
     ]
     designs = [
-        {"trial": t[0], "params": dict(zip(OPT_VARIABLES, t[1:3], strict=True)),
-         "measurements": dict(zip(OPT_MEASURED, t[3:7], strict=True)),
-         "toml": f"front/trial-{t[0]:04d}.toml"}
-        for t in trials if t[0] in front
+        {
+            "trial": t[0],
+            "params": dict(zip(OPT_VARIABLES, t[1:3], strict=True)),
+            "measurements": dict(zip(OPT_MEASURED, t[3:7], strict=True)),
+            "toml": f"front/trial-{t[0]:04d}.toml",
+        }
+        for t in trials
+        if t[0] in front
     ]
-    (out / "front.json").write_text(json.dumps(
-        {"name": "opt", "objectives": objectives, "hypervolume": 0.0, "designs": designs}))
+    (out / "front.json").write_text(
+        json.dumps(
+            {"name": "opt", "objectives": objectives, "hypervolume": 0.0, "designs": designs}
+        )
+    )
     shutil.copytree(build_dir, out / "front" / "trial-0004")
     return out
 

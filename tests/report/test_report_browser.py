@@ -1,5 +1,6 @@
 """The reports in headless Chromium: no JavaScript errors, plots drawn, sliders pose the arm."""
 
+import csv
 import io
 import json
 import math
@@ -105,7 +106,11 @@ def test_study_report_fronts_and_comparison(browser, study_dir):
     log = open_page(browser, study_dir / "report.html")
     assert _errors(log) == []
     assert sorted(_plots_drawn(browser)) == [
-        "cmpMap", "front0", "hvhistory", "parallel", "sensitivity",
+        "cmpMap",
+        "front0",
+        "hvhistory",
+        "parallel",
+        "sensitivity",
     ]
     assert _not_blank(browser.get_screenshot_as_png())
     # hover text of the front names the design's variables
@@ -123,7 +128,9 @@ def test_study_report_fronts_and_comparison(browser, study_dir):
     names = browser.execute_script(
         "return [...document.querySelectorAll('#cmpTable th')].map(th => th.textContent)"
     )
-    results = [line.split('"')[1] for line in (study_dir / "results.csv").read_text().splitlines()[1:]]
+    with (study_dir / "results.csv").open(newline="") as fh:
+        results = [row["name"] for row in csv.DictReader(fh)]
+    ]
     assert names[1:3] == [results[0], results[2]]
     maps = {}
     for path in (study_dir / "designs").glob("*.json"):
@@ -142,7 +149,11 @@ def test_optimize_report_links_front_designs_to_their_build_report(browser, opti
     log = open_page(browser, optimize_dir / "report.html")
     assert _errors(log) == []
     assert sorted(_plots_drawn(browser)) == [
-        "cmpMap", "front0", "hvhistory", "parallel", "sensitivity",
+        "cmpMap",
+        "front0",
+        "hvhistory",
+        "parallel",
+        "sensitivity",
     ]
     # a click on the built front design opens its report
     url = browser.execute_script(

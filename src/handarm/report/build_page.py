@@ -210,7 +210,9 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
     fig.update_layout(
         title="carved arm (mm); drag to turn, scroll to zoom",
         scene={
-            "aspectmode": "cube",
+            "aspectmode": "manual",  # equal scales on the three axes
+            "aspectratio": {"x": (box[1] - box[0]) / (2 * reach), "y": 1.0, "z": 1.0},
+            "camera": {"eye": {"x": 0.55, "y": -0.85, "z": 0.5}},
             "xaxis": {"title": "x (mm)", "range": box},
             "yaxis": {"title": "y (mm)", "range": [-reach, reach]},
             "zaxis": {"title": "z (mm)", "range": [-reach, reach]},
