@@ -35,6 +35,7 @@ FLAGS = (
 
 
 def main(build_dir: str, out: str = "docs/images/report.png") -> None:
+    """Rewrite BUILD_DIR/report.html, photograph its top, save a small PNG at ``out``."""
     page = write_report(build_dir)
     opts = Options()
     opts.binary_location = which("chromium") or which("chromium-browser")

@@ -130,7 +130,6 @@ def test_study_report_fronts_and_comparison(browser, study_dir):
     )
     with (study_dir / "results.csv").open(newline="") as fh:
         results = [row["name"] for row in csv.DictReader(fh)]
-    ]
     assert names[1:3] == [results[0], results[2]]
     maps = {}
     for path in (study_dir / "designs").glob("*.json"):
