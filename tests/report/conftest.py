@@ -3,27 +3,14 @@
 import csv
 import json
 import shutil
-import tempfile
 from pathlib import Path
 
 import pytest
 
 import handarm
 from handarm.pipeline import carve_design, export_controller, map_workspace
+from handarm.report.browser import find_chromium, headless_chromium, wait_for_plots
 from handarm.summary import design_summary
-
-CHROMIUM_FLAGS = (
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--enable-unsafe-swiftshader",
-    "--window-size=1300,1800",
-)
 
 
 @pytest.fixture(scope="session")
@@ -125,30 +112,11 @@ def optimize_dir(tmp_path_factory, build_dir):
     return out
 
 
-def chromium():
-    """A headless Chromium WebDriver, or None when Chromium or chromedriver is missing."""
-    binary = shutil.which("chromium") or shutil.which("chromium-browser")
-    driver = shutil.which("chromedriver")
-    if not (binary and driver):
-        return None
-    from selenium import webdriver
-    from selenium.webdriver.chrome.options import Options
-    from selenium.webdriver.chrome.service import Service
-
-    opts = Options()
-    opts.binary_location = binary
-    for flag in CHROMIUM_FLAGS:
-        opts.add_argument(flag)
-    opts.add_argument(f"--user-data-dir={tempfile.mkdtemp(prefix='handarm-chromium-')}")
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    return webdriver.Chrome(options=opts, service=Service(driver))
-
-
 @pytest.fixture(scope="module")
 def browser():
-    drv = chromium()
-    if drv is None:
+    if find_chromium() is None:
         pytest.skip("no browser: install chromium and chromium-driver (CI does)")
+    drv = headless_chromium()
     yield drv
     drv.quit()
 
@@ -156,12 +124,6 @@ def browser():
 def open_page(drv, path: Path):
     """Load a report from disk; returns the console entries logged while loading."""
     drv.get_log("browser")  # drop what earlier pages logged
-    drv.set_script_timeout(120)  # software WebGL on a busy machine
     drv.get(path.resolve().as_uri())
-    drv.execute_async_script(
-        "const done = arguments[0];"
-        "const wait = () => document.querySelectorAll('.plot').length &&"
-        " [...document.querySelectorAll('.plot')].every(d => d._fullLayout)"
-        " ? setTimeout(done, 500) : setTimeout(wait, 100); wait();"
-    )
+    wait_for_plots(drv)
     return drv.get_log("browser")
