@@ -69,7 +69,7 @@ def headless_chromium(width: int = 1300, height: int = 1800):
 def wait_for_plots(drv, settle_ms: int = 500) -> None:
     """Wait until every plot div of the loaded page is laid out, then ``settle_ms`` more."""
     drv.execute_async_script(
-        "const done = arguments[0], ms = arguments[1];"
+        "const done = arguments[arguments.length - 1], ms = arguments[0];"
         "const wait = () => [...document.querySelectorAll('.plot')].every(d => d._fullLayout)"
         " ? setTimeout(done, ms) : setTimeout(wait, 100); wait();",
         settle_ms,

@@ -4,9 +4,10 @@ Read only from the files the build wrote (nothing is carved or mapped again):
 
 - the carved arm in 3D from the URDF's mesh visuals, posed in the page by the URDF's chain
   (forward kinematics in JavaScript), one slider per joint over its usable range (the
-  achieved limits of ``carve.json`` within the design's), and named poses (straight, the
-  paper's fold, every joint at each end of its range) with the printed-link model's verdict
-  and the colliding pairs, evaluated when the page is made;
+  achieved limits of ``carve.json`` within the design's), the verdict of the printed-link
+  model with the colliding pairs evaluated live in the page (``handarm.report._live``), and
+  named poses (straight, the paper's fold, every joint at each end of its range) with their
+  verdicts also computed here, in Python;
 - the workspace map (``workspace/workspace.npz``) as iso-surfaces of the reachability index
   and two slices, with the handle marked; its scores;
 - per link and per joint tables, the transmission and controller settings, and whatever
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from handarm.report._data import display_mesh, read_json, read_urdf, unit_of
+from handarm.report._live import COLLISION_JS, collision_data
 from handarm.report._page import Page
 
 __all__ = ["build_report", "named_poses", "LINK_COLOURS"]
@@ -85,7 +87,15 @@ _POSE_JS = r"""
     const out = document.getElementById('verdict'), p = verdictFor(qdeg);
     const inside = qdeg.every(
       (v, i) => v >= M.design_deg[i][0] - 1e-9 && v <= M.design_deg[i][1] + 1e-9);
-    if (p) {
+    if (M.collision) {
+      const hits = collidingPairs(M.collision, qrad), ok = inside && hits.length === 0;
+      const why = [];
+      if (!inside) why.push('outside the design limits');
+      if (hits.length) why.push('collides: ' + hits.join(', '));
+      out.className = 'verdict ' + (ok ? 'ok' : 'bad');
+      out.textContent = (p ? p.name + ': ' : '') + (ok ? 'valid' : 'invalid') + ' (' +
+        (ok ? 'within limits, no printed links collide' : why.join('; ')) + ')';
+    } else if (p) {
       out.className = 'verdict ' + (p.valid ? 'ok' : 'bad');
       out.textContent = p.name + ': ' + (p.valid ? 'valid' : 'invalid') + ' (' + p.reason + ')';
     } else {
@@ -99,7 +109,8 @@ _POSE_JS = r"""
     M.sliders.forEach((s, i) => { document.getElementById(s.id).value = qdeg[i]; });
     update();
   }
-  window.handarmReport = {setPose: setPose, frames: q => frames(q), update: update, model: M};
+  window.handarmReport = {setPose: setPose, frames: q => frames(q), update: update, model: M,
+    collisions: q => M.collision ? collidingPairs(M.collision, q) : null};
   M.sliders.forEach(s => document.getElementById(s.id).addEventListener('input', update));
   M.poses.forEach((p, n) => document.getElementById('pose' + n).addEventListener(
     'click', () => setPose(p.q_deg)));
@@ -244,9 +255,9 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
         "<p>Joint angles: each slider spans the joint's usable range, the limits the carved "
         "links achieve within the design's limits.</p>"
         + "".join(controls)
-        + '<p>Verdict of the printed-link model: <span id="verdict" class="verdict unknown">'
-        "</span></p>"
-        f"<p>Named poses (verdicts computed when the page was made):<br>{buttons}</p>"
+        + '<p>Verdict (design limits and the printed-link collision model, evaluated live): '
+        '<span id="verdict" class="verdict unknown"></span></p>'
+        f"<p>Named poses:<br>{buttons}</p>"
         "</div></div>"
     )
     page.table(
@@ -275,6 +286,9 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
         "poses": poses,
         "design_deg": np.degrees(np.stack([design.lower, design.upper], axis=1)).tolist(),
     }
+    if design.collision_model == "printed":
+        js_model["collision"] = collision_data(design)
+    page.script(COLLISION_JS)
     page.script(_POSE_JS % {"model": json.dumps(js_model, separators=(",", ":"))})
 
 
