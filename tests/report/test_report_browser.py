@@ -165,3 +165,32 @@ def test_optimize_report_links_front_designs_to_their_build_report(browser, opti
     )
     assert url == "front/trial-0004/report.html"
     assert (optimize_dir / url).is_file()
+
+
+def test_live_verdict_is_the_printed_link_model(browser, build_dir, rng):
+    """The page's JavaScript names the same colliding pairs as printed_collisions."""
+    from handarm.collision import LINK_PAIRS, printed_collisions
+
+    open_page(browser, build_dir / "report.html")
+    design = handarm.ArmDesign.from_toml(build_dir / "design.toml")
+    wide = rng.uniform(-math.pi, math.pi, (1500, 6))
+    inside = rng.uniform(design.lower, design.upper, (1500, 6))
+    q = np.vstack([wide, inside])
+    got = browser.execute_script(
+        "return arguments[0].map(q => window.handarmReport.collisions(q))", q.tolist()
+    )
+    names = [f"l{a}–l{b}" for a, b in LINK_PAIRS]
+    want = [
+        [n for n, h in zip(names, row, strict=True) if h] for row in printed_collisions(design, q)
+    ]
+    assert got == want
+    hits = sum(bool(w) for w in want)
+    assert 100 < hits < len(q) - 100  # both verdicts are exercised
+    # the verdict shown for a colliding pose inside the limits names its pairs
+    k = next(i for i in range(1500, 3000) if want[i])
+    browser.execute_script("window.handarmReport.setPose(arguments[0]);", np.degrees(q[k]).tolist())
+    shown_q = np.radians(browser.execute_script("return window.handarmReport.q_deg"))  # 0.5 deg
+    at = [n for n, h in zip(names, printed_collisions(design, shown_q), strict=True) if h]
+    shown = browser.find_element(By.ID, "verdict").text
+    assert shown.startswith("invalid" if at else "valid")
+    assert all(n in shown for n in at)
