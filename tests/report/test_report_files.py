@@ -126,6 +126,8 @@ def test_unit_of_reads_the_suffix():
     assert unit_of("inertia_kg_m2") == ("inertia", "kg·m²")
     assert unit_of("limit_deg_5") == ("limit 5", "deg")
     assert unit_of("mean_index") == ("mean index", "–")
+    assert unit_of("reachable_volume_L") == ("reachable volume", "L")
+    assert unit_of("min_cross_section_mm2") == ("min cross section", "mm²")
 
 
 @settings(max_examples=60, deadline=None)
@@ -159,6 +161,7 @@ def test_hypervolume_history_grows_to_the_whole_front(rng):
     assert hist[-1] == pytest.approx(hypervolume(pts, [0.0, 2.0]))
 
 
+@pytest.mark.slow  # a real study: carving and mapping three designs on Dask
 def test_study_report_reads_the_study(study_dir):
     path = write_report(study_dir)
     page = path.read_text()
