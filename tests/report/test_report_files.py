@@ -174,3 +174,20 @@ def test_optimize_report_reads_the_documented_layout(optimize_dir):
     page = write_report(optimize_dir).read_text()
     assert "front/trial-0004/report.html" in page
     assert "reachable volume (L)" in page and "mass (g)" in page
+
+
+def test_display_meshes_are_decimated_above_the_budget_and_stls_untouched(build_dir, monkeypatch):
+    import trimesh
+
+    from handarm.report import _data
+
+    stl = build_dir / "meshes" / "l0.stl"
+    data = stl.read_bytes()
+    full = trimesh.load_mesh(stl)
+    monkeypatch.setattr(_data, "FACE_BUDGET", len(full.faces) // 4)
+    v, f = _data.display_mesh(stl, np.eye(4), [1e-3] * 3)
+    assert len(f) <= len(full.faces) // 4 and f.max() < len(v)
+    # still the same part: its bounding box (mm) within a millimetre
+    assert np.allclose(v.min(axis=0), full.bounds[0], atol=1.0)
+    assert np.allclose(v.max(axis=0), full.bounds[1], atol=1.0)
+    assert stl.read_bytes() == data

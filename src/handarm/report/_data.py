@@ -169,8 +169,8 @@ def read_urdf(path: Path) -> UrdfModel:
 def display_mesh(path: Path, origin, scale) -> tuple[np.ndarray, np.ndarray]:
     """A visual's mesh in its link frame, in mm, for display.
 
-    Meshes above ``FACE_BUDGET`` faces are decimated (when ``fast_simplification`` is
-    installed); the mesh files themselves are never changed.
+    Meshes above ``FACE_BUDGET`` faces are decimated to it (quadric decimation); the mesh
+    files themselves are never changed.
 
     Returns
     -------
@@ -180,11 +180,8 @@ def display_mesh(path: Path, origin, scale) -> tuple[np.ndarray, np.ndarray]:
     import trimesh
 
     mesh = trimesh.load_mesh(path, force="mesh")
-    if len(mesh.faces) > FACE_BUDGET:
-        try:
-            mesh = mesh.simplify_quadric_decimation(face_count=FACE_BUDGET)
-        except (ImportError, ModuleNotFoundError):
-            pass
+    if len(mesh.faces) > FACE_BUDGET:  # trimesh decimates with fast_simplification
+        mesh = mesh.simplify_quadric_decimation(face_count=FACE_BUDGET)
     v = np.asarray(mesh.vertices, dtype=float) * np.asarray(scale, dtype=float)
     m = np.asarray(origin, dtype=float)
     v = v @ m[:3, :3].T + m[:3, 3]
