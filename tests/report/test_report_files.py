@@ -163,6 +163,7 @@ def test_hypervolume_history_grows_to_the_whole_front(rng):
 
 @pytest.mark.slow  # a real study: carving and mapping three designs on Dask
 def test_study_report_reads_the_study(study_dir):
+    assert (study_dir / "report.html").is_file()  # run_study writes it
     path = write_report(study_dir)
     page = path.read_text()
     for name in ("limit_deg_2=110", "limit_deg_2=130", "limit_deg_2=150"):
