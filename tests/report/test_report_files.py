@@ -1,6 +1,7 @@
 """report.html as a file: offline, regenerated without recomputing, the CLI, the pieces."""
 
 import itertools
+import json
 import math
 import re
 
@@ -192,3 +193,19 @@ def test_display_meshes_are_decimated_above_the_budget_and_stls_untouched(build_
     assert np.allclose(v.min(axis=0), full.bounds[0], atol=1.0)
     assert np.allclose(v.max(axis=0), full.bounds[1], atol=1.0)
     assert stl.read_bytes() == data
+
+
+def test_sizing_json_is_shown_with_units(build_dir, tmp_path):
+    import shutil
+
+    out = tmp_path / "b"
+    shutil.copytree(build_dir, out)
+    sizing = {"torque_limit_Nm": 3.0, "payload_kg": 0.25, "sized_joint_pulley_radii_mm": [8, 9]}
+    (out / "sizing.json").write_text(json.dumps(sizing))
+    page = write_report(out).read_text()
+    for cells in (
+        '<td class="t">torque limit</td><td class="t">N·m</td><td class="t">3</td>',
+        '<td class="t">payload</td><td class="t">kg</td><td class="t">0.25</td>',
+        '<td class="t">sized joint pulley radii</td><td class="t">mm</td><td class="t">8, 9</td>',
+    ):
+        assert cells in page

@@ -350,6 +350,14 @@ def _json_block(page: Page, title: str, data) -> None:
         keys = list(dict.fromkeys(k for r in data for k in r))
         headers = [f"{unit_of(k)[0]} ({unit_of(k)[1]})" for k in keys]
         page.table(headers, [[_cell(r.get(k)) for k in keys] for r in data], text_columns=())
+    elif isinstance(data, dict) and all(not isinstance(v, dict) for v in data.values()):
+        rows = []
+        for key, value in data.items():
+            label, unit = unit_of(key)
+            if isinstance(value, list) and all(isinstance(v, int | float) for v in value):
+                value = ", ".join(f"{v:.4g}" for v in value)
+            rows.append((label, unit, _cell(value)))
+        page.table(["quantity", "unit", "value"], rows, text_columns=(0, 1, 2))
     else:
         page.pre(json.dumps(data, indent=2))
 
