@@ -26,6 +26,7 @@ EXPECTED = [
     ("controller/arm_config.h", "controller/arm_config.h", 1),
     ("workspace/workspace.npz", "workspace/workspace.npz", 1),
     ("workspace/workspace.json", "workspace/workspace.json", 1),
+    ("report.html", "report.html", 1),
 ]
 
 

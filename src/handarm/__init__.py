@@ -43,6 +43,7 @@ _SUBMODULES = frozenset(
         "links",
         "pipeline",
         "scene",
+        "report",
         "servo",
         "summary",
         "transmission",

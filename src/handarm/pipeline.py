@@ -208,7 +208,8 @@ def build(
 
     Writes the design TOML, a text summary, the carving (meshes, 3MF plate, link
     properties, pictures, the URDF with meshes), ``controller/`` (the servo controller's
-    files with the achieved limits) and ``workspace/`` (the reachability map and scores).
+    files with the achieved limits), ``workspace/`` (the reachability map and scores) and,
+    last, ``report.html`` (the interactive page of all of it, see ``handarm.report``).
 
     Parameters
     ----------
@@ -252,4 +253,7 @@ def build(
     files += map_workspace(
         design, out / "workspace", voxel=voxel, directions=directions, progress=progress
     )
+    from handarm.report import write_report  # plotly: loaded only when a report is made
+
+    files.append(write_report(out))
     return BuildResult(design, out, tuple(files), carving)

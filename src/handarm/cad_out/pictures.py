@@ -15,7 +15,7 @@ from handarm.carve.carving import CarveResult
 from handarm.carve.properties import to_trimesh
 from handarm.kinematics import joint_frames
 
-__all__ = ["link_picture", "arm_picture", "folded_pose"]
+__all__ = ["link_picture", "arm_picture", "folded_pose", "fold_from_limits"]
 
 _COLOURS = ["#5b6770", "#2f7ebc", "#e0892b", "#3a9e5c", "#c0392b", "#8e5cc2", "#d4a017"]
 
@@ -57,7 +57,11 @@ def link_picture(result: CarveResult, k: int, path: str | os.PathLike[str]) -> P
 
 def folded_pose(result: CarveResult) -> np.ndarray:
     """The paper's fold (figure 4): joints 2 and 5 at their limit, 1, 3 and 4, 6 back by half."""
-    lim = [j.carved for j in result.joints]
+    return fold_from_limits([j.carved for j in result.joints])
+
+
+def fold_from_limits(lim) -> np.ndarray:
+    """The paper's fold (see ``folded_pose``) for joint limits ``lim``: 6 (lo, hi) pairs, rad."""
     q = np.zeros(6)
     for mid in (1, 4):
         h = min(lim[mid][1], math.radians(179.0))

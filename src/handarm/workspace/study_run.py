@@ -92,7 +92,7 @@ def run_study(
     progress: Callable[[int, int], None] | None = None,
     stop_after: int | None = None,
 ) -> dict:
-    """Evaluate every design not already on disk, then write the table and pictures.
+    """Evaluate every design not already on disk, then the table, pictures and report.html.
 
     Parameters
     ----------
@@ -135,6 +135,10 @@ def run_study(
         )
     rows = study_table(study, out)
     study_sensitivity(study, out)
+    if rows:
+        from handarm.report import write_report  # plotly: loaded only for the report
+
+        write_report(out)
     return {"computed": len(pending), "reused": reused, "rows": rows}
 
 
