@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -25,3 +26,20 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def read_regular_bytes(path: Path, limit: int = 1 << 24) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes.
+
+    A FIFO or device node would block or never end, so anything but a regular file is
+    refused before it is opened (ValueError); so is a file over ``limit`` bytes (16 MiB).
+    FileNotFoundError passes through.
+    """
+    path = Path(path)
+    st = path.stat()
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError("not a regular file")
+    if st.st_size > limit:
+        raise ValueError(f"{st.st_size} bytes is too large (limit {limit})")
+    with path.open("rb") as fh:
+        return fh.read(limit + 1)

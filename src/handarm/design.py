@@ -11,7 +11,6 @@ import dataclasses
 import math
 import os
 import re
-import stat
 import tomllib
 from collections.abc import Mapping, Sequence
 from functools import cached_property
@@ -21,7 +20,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from handarm._io import write_text_atomic
+from handarm._io import read_regular_bytes, write_text_atomic
 from handarm.firmware_bridge.mx64 import BAUD_VALUES
 from handarm.servo import SERVOS, ServoSpec
 
@@ -212,17 +211,15 @@ class ArmDesign:
         """Load a design from a TOML file of the same fields as ``to_toml`` writes."""
         path = Path(path)
         try:
-            # a FIFO or device would block or never end: only regular files are read
-            if not stat.S_ISREG(path.stat().st_mode):
-                raise ValueError(f"{path}: not a regular file")
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
+            data = tomllib.loads(read_regular_bytes(path).decode("utf-8"))
         except FileNotFoundError:
             raise FileNotFoundError(f"design file not found: {path}") from None
         except UnicodeDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc.reason}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
+        except ValueError as exc:  # a FIFO, device or huge file
+            raise ValueError(f"{path}: {exc}") from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:
