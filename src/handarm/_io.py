@@ -16,6 +16,9 @@ def write_text_atomic(path: Path, text: str) -> None:
 def write_bytes_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        # a rename would replace a link, FIFO or device node with a regular file
+        raise ValueError(f"{path}: exists and is not a regular file; not replacing it")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:

@@ -25,7 +25,7 @@ from contextlib import contextmanager
 
 from handarm import __version__
 from handarm.cli import bridge, build, ik, workspace
-from handarm.cli._common import UsageError, option_error
+from handarm.cli._common import Parser, UsageError, option_error
 
 __all__ = ["main", "make_parser", "UsageError", "EXIT_CODES"]
 
@@ -83,11 +83,10 @@ class _Interrupts:
 
 def make_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``handarm`` command."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="handarm",
         description="Design, carve, solve and drive small coupled-tendon robot arms.",
-        epilog="exit status: "
-        + "; ".join(f"{code} {text}" for code, text in EXIT_CODES.items()),
+        epilog="exit status: " + "; ".join(f"{code} {text}" for code, text in EXIT_CODES.items()),
     )
     parser.add_argument("--version", action="version", version=f"handarm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
