@@ -21,6 +21,7 @@ import importlib
 import os
 import signal
 import sys
+import threading
 from contextlib import contextmanager
 
 from handarm import __version__
@@ -52,20 +53,39 @@ _PRELOAD = {
 _PRELOAD_DEFAULT = ("handarm.pipeline",)
 
 
+#: Seconds a KeyboardInterrupt may take to end the command before the process is ended
+#: outright: some libraries (Dask's client among them) catch it and carry on.
+_GRACE = 5.0
+
+
 class _Interrupts:
-    """SIGINT handler: raises KeyboardInterrupt, or while importing exits at once (130)."""
+    """SIGINT handler: raises KeyboardInterrupt, or while importing exits at once (130).
+
+    After the first Ctrl-C a watchdog ends the process (status 130) if the command has not
+    ended within ``_GRACE`` seconds. A hard exit leaves at most a hidden ``.tmp`` file (the
+    next run removes it) and a build folder still marked incomplete: both true states.
+    """
 
     def __init__(self) -> None:
         self.seen = False
         self.importing = False
+        self.reported = False
         self.name = "handarm"
 
     def __call__(self, signum, frame) -> None:
-        self.seen = True
         if self.importing:
-            os.write(2, f"{self.name}: interrupted\n".encode())
-            os._exit(EXIT_INTERRUPTED)
+            self.exit_now()
+        if not self.seen:
+            self.seen = True
+            watchdog = threading.Timer(_GRACE, self.exit_now)
+            watchdog.daemon = True
+            watchdog.start()
         raise KeyboardInterrupt
+
+    def exit_now(self) -> None:
+        if not self.reported:
+            os.write(2, f"{self.name}: interrupted\n".encode())
+        os._exit(EXIT_INTERRUPTED)
 
     @contextmanager
     def imports(self):
@@ -114,6 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         interrupts.check()  # a library that swallowed Ctrl-C does not make it a success
         return status
     except KeyboardInterrupt:
+        interrupts.reported = True
         print(f"{name}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (UsageError, ValueError, OSError) as exc:
