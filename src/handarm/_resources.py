@@ -74,7 +74,10 @@ def check_resources(
     memory, seconds = estimate(
         design, voxel=voxel, directions=directions, resolution_deg=resolution_deg
     )
-    what = "voxel" if voxel is not None else "resolution_deg"
+    what = "resolution_deg"
+    if voxel is not None:
+        # name the setting that drives the size: directions when the per-query counts dominate
+        what = "directions" if directions and directions > 100 else "voxel"
     if memory > max_memory:
         raise ValueError(
             f"{what}: the job needs about {memory / 2**30:.1f} GiB of memory, over the "
