@@ -358,9 +358,14 @@ def test_ctrl_c_during_build_is_exit_130_and_one_line(tmp_path, delay):
     code, err, took = _interrupt(["build", "--out", tmp_path / "b", "--quiet"], delay, tmp_path)
     if code == 0:  # the build finished before the signal (a fast machine)
         return
+    assert took < 10
+    if code == -signal.SIGINT:
+        # the interpreter had not started Python code yet: killed by the signal, which a
+        # shell reports as status 130, with nothing printed
+        assert err == ""
+        return
     assert code == 130 and "Traceback" not in err, err
     assert err.strip().endswith("interrupted") and len(err.strip().splitlines()) == 1
-    assert took < 10
     b = tmp_path / "b"
     assert not b.exists() or (b / INCOMPLETE).exists() or (b / MANIFEST).exists()
     assert set(os.listdir(tmp_path)) <= {"b"}
