@@ -8,8 +8,8 @@ heavy is imported; ``handarm.cli.main`` then installs its own handler.
 
 from __future__ import annotations
 
+import _signal  # built in: no file to import before the handler is in place
 import os
-import signal
 import sys
 
 
@@ -18,9 +18,12 @@ def _abort(signum, frame) -> None:  # nothing has been written yet: leave at onc
     os._exit(130)
 
 
+_signal.signal(_signal.SIGINT, _abort)  # at import: the console script imports, then calls
+
+
 def main() -> int:
     """Run ``handarm.cli.main`` with Ctrl-C ending the process cleanly during imports."""
-    signal.signal(signal.SIGINT, _abort)
+    _signal.signal(_signal.SIGINT, _abort)
     from handarm.cli import main as run
 
     return run()
