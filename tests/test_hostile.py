@@ -359,7 +359,6 @@ def test_ctrl_c_at_interpreter_start_ends_promptly(tmp_path, delay):
     # the signal (a shell shows 130) or Python's KeyboardInterrupt report; never a hang
     code, err, took = _interrupt(["build", "--out", tmp_path / "b", "--quiet"], delay, tmp_path)
     assert code in (130, -signal.SIGINT, 1) and took < 10, err
-    assert "handarm" not in err.replace("handarm_cli", "") or "interrupted" in err
 
 
 @pytest.mark.slow
