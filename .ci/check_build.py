@@ -27,6 +27,7 @@ EXPECTED = [
     ("workspace/workspace.npz", "workspace/workspace.npz", 1),
     ("workspace/workspace.json", "workspace/workspace.json", 1),
     ("report.html", "report.html", 1),
+    ("handarm-build.json", "handarm-build.json", 1),
 ]
 
 
@@ -41,6 +42,8 @@ def main(folder: str) -> int:
     leftovers = [str(p) for p in root.rglob("*.tmp")]
     if leftovers:
         missing.append(f"half-written files left behind: {leftovers}")
+    if (root / ".handarm-incomplete").exists():
+        missing.append("the build folder is marked incomplete")
     for line in missing:
         print(f"check_build: {line}", file=sys.stderr)
     if not missing:

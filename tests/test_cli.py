@@ -136,8 +136,10 @@ def test_ik_command_user_mistakes(capsys):
     code, _, err = run(capsys, "ik", "--pos", "0.2", "0", "0", "--dir", "0", "0", "0")
     assert code == 2 and "--dir: direction has zero length" in err
     assert "Traceback" not in err
-    code, _, err = run(capsys, "ik", "--pos", "0.2", "0", "nan", "--dir", "1", "0", "0")
-    assert code == 2 and "--pos" in err
+    with pytest.raises(SystemExit) as exc:  # the option's type refuses NaN, in one line
+        run(capsys, "ik", "--pos", "0.2", "0", "nan", "--dir", "1", "0", "0")
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "--pos" in err and len(err.strip().splitlines()) == 1
     code, _, err = run(capsys, "ik", "--pos", "0.6", "0", "0", "--dir", "1", "0", "0", "--exact")
     assert code == 1
 

@@ -38,7 +38,7 @@ def test_toml_round_trip_default(tmp_path, design):
     assert data["link_lengths"] == list(design.link_lengths)
 
 
-lengths = st.floats(1e-3, 1.0, allow_nan=False)
+lengths = st.floats(0.02, 0.5, allow_nan=False)  # hubs of 9 mm fit; FIELD_BOUNDS
 half_limit = st.floats(0.0, math.pi, allow_nan=False)
 
 
@@ -47,8 +47,8 @@ half_limit = st.floats(0.0, math.pi, allow_nan=False)
     a=st.lists(lengths, min_size=7, max_size=7),
     lims=st.lists(st.tuples(half_limit, half_limit), min_size=6, max_size=6),
     signs=st.lists(st.sampled_from([-1, 1]), min_size=21, max_size=21),
-    clearance=st.floats(1e-5, 1e-3),
-    name=st.text(min_size=1, max_size=20),
+    clearance=st.floats(5e-5, 1e-3),
+    name=st.from_regex(handarm.design.NAME_PATTERN, fullmatch=True),
 )
 def test_toml_round_trip_is_exact(tmp_path_factory, a, lims, signs, clearance, name):
     it = iter(signs)
@@ -113,7 +113,7 @@ def test_designs_are_hashable_values(design):
             {"joint_limits": [[-1, True]] * 6},
             r"joint_limits\[0\]\[1\]: expected a number, got bool",
         ),
-        ({"hub_radius": 0.001}, r"hub_radius: .* leaves no wall around the axle bore"),
+        ({"hub_radius": 0.0025}, r"hub_radius: .* leaves no wall around the axle bore"),
         ({"clearance": 0.0}, r"clearance: must be > 0, got 0"),
         ({"density": -5}, r"density: must be > 0"),
         ({"motor_pulley_radius": "big"}, r"motor_pulley_radius: expected a number, got str"),
@@ -122,7 +122,7 @@ def test_designs_are_hashable_values(design):
         ({"servo_ids": [1, 2, 3, 4, 5, 300]}, r"servo_ids\[5\]: Dynamixel IDs are 0..252, got 300"),
         ({"servo_ids": [1, 2, 3, 4, 5, 6.0]}, r"servo_ids\[5\]: expected an integer, got float"),
         ({"servo_model": "XL-320"}, r"servo_model: unknown model 'XL-320'"),
-        ({"baud_rate": 0}, r"baud_rate: must be > 0, got 0"),
+        ({"baud_rate": 0}, r"baud_rate: 0 is not a rate the servo and the Dynamixel SDK share"),
         ({"name": ""}, r"name: expected a non-empty string"),
         (
             {"routing_signs": [[1, 0, 0, 0, 0, 0]] * 6},

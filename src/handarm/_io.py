@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -15,6 +16,9 @@ def write_text_atomic(path: Path, text: str) -> None:
 def write_bytes_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and a rename."""
     path = Path(path)
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        # a rename would replace a link, FIFO or device node with a regular file
+        raise ValueError(f"{path}: exists and is not a regular file; not replacing it")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
@@ -25,3 +29,20 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def read_regular_bytes(path: Path, limit: int = 1 << 24) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes.
+
+    A FIFO or device node would block or never end, so anything but a regular file is
+    refused before it is opened (ValueError); so is a file over ``limit`` bytes (16 MiB).
+    FileNotFoundError passes through.
+    """
+    path = Path(path)
+    st = path.stat()
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError("not a regular file")
+    if st.st_size > limit:
+        raise ValueError(f"{st.st_size} bytes is too large (limit {limit})")
+    with path.open("rb") as fh:
+        return fh.read(limit + 1)

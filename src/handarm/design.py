@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from functools import cached_property
@@ -19,10 +20,11 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from handarm._io import write_text_atomic
+from handarm._io import read_regular_bytes, write_text_atomic
+from handarm.firmware_bridge.mx64 import BAUD_VALUES
 from handarm.servo import SERVOS, ServoSpec
 
-__all__ = ["ArmDesign", "PAPER_LIMITS_DEG"]
+__all__ = ["ArmDesign", "PAPER_LIMITS_DEG", "FIELD_BOUNDS", "MIN_BORE_WALL", "NAME_PATTERN"]
 
 #: Joint limits of the paper's arm (section II-A.2), degrees, symmetric.
 PAPER_LIMITS_DEG = (135.0, 150.0, 135.0, 125.0, 150.0, 150.0)
@@ -33,6 +35,31 @@ COLLISION_MODELS = ("printed", "paper")
 
 _N_JOINTS = 6
 _N_LINKS = 7
+
+#: Physical bounds (inclusive, SI) of every numeric field, per element for the tuples. A
+#: design inside them (and the relations of ``_check_relations``) can be carved, mapped,
+#: exported and sized; outside them a design is refused at load with the field named.
+FIELD_BOUNDS: dict[str, tuple[float, float]] = {
+    "link_lengths": (0.005, 0.5),  # m: a desk-sized printed arm
+    "beam_width": (0.002, 0.1),
+    "beam_thickness": (0.002, 0.1),
+    "hub_radius": (0.002, 0.1),
+    "axle_diameter": (0.0005, 0.05),
+    "cable_diameter": (0.0001, 0.005),
+    "idler_width": (0.0005, 0.05),
+    "cheek_thickness": (0.0008, 0.05),  # two print lines of a 0.4 mm nozzle
+    "clearance": (0.00005, 0.001),
+    "joint_pulley_radii": (0.001, 0.1),
+    "motor_pulley_radius": (0.001, 0.1),
+    "density": (100.0, 20000.0),  # kg/m^3: foams to tungsten-filled filament
+}
+
+#: Smallest wall around an axle bore that carving keeps (m).
+MIN_BORE_WALL = 0.001
+
+#: What a design name may be: it becomes file names (``<name>.urdf``), so no separators,
+#: no leading dot, at most 64 characters.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,63}")
 
 
 def _default_limits() -> tuple[tuple[float, float], ...]:
@@ -184,12 +211,15 @@ class ArmDesign:
         """Load a design from a TOML file of the same fields as ``to_toml`` writes."""
         path = Path(path)
         try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
+            data = tomllib.loads(read_regular_bytes(path).decode("utf-8"))
         except FileNotFoundError:
             raise FileNotFoundError(f"design file not found: {path}") from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML: {exc.reason}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
+        except ValueError as exc:  # a FIFO, device or huge file
+            raise ValueError(f"{path}: {exc}") from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:
@@ -273,6 +303,15 @@ def _positive(field: str, value: Any) -> float:
     return x
 
 
+def _bounded(name: str, field: str, value: Any) -> float:
+    """A positive number within ``FIELD_BOUNDS[name]``; ``field`` names it in errors."""
+    x = _positive(field, value)
+    lo, hi = FIELD_BOUNDS[name]
+    if not lo <= x <= hi:
+        raise ValueError(f"{field}: {x:g} is outside the physical range {lo:g} .. {hi:g}")
+    return x
+
+
 def _sequence(field: str, value: Any, n: int) -> Sequence[Any]:
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise ValueError(f"{field}: expected a list of {n} values, got {type(value).__name__}")
@@ -294,13 +333,15 @@ def _normalise(name: str, value: Any) -> Any:
             raise ValueError(f"{name}: expected a non-empty string, got {value!r}")
         if name == "servo_model" and value not in SERVOS:
             raise ValueError(f"servo_model: unknown model {value!r}; known: {sorted(SERVOS)}")
+        if name == "name" and not NAME_PATTERN.fullmatch(value):
+            raise ValueError(
+                f"name: {value[:80]!r} is not a file-name-safe label (letters, digits, "
+                "'_', '.', '+', '-'; not starting with '.'; at most 64 characters)"
+            )
         return value
-    if name == "link_lengths":
-        seq = _sequence(name, value, _N_LINKS)
-        return tuple(_positive(f"{name}[{k}]", v) for k, v in enumerate(seq))
-    if name == "joint_pulley_radii":
-        seq = _sequence(name, value, _N_JOINTS)
-        return tuple(_positive(f"{name}[{k}]", v) for k, v in enumerate(seq))
+    if name in ("link_lengths", "joint_pulley_radii"):
+        seq = _sequence(name, value, _N_LINKS if name == "link_lengths" else _N_JOINTS)
+        return tuple(_bounded(name, f"{name}[{k}]", v) for k, v in enumerate(seq))
     if name == "joint_limits":
         return _limits(value)
     if name == "routing_signs":
@@ -316,10 +357,13 @@ def _normalise(name: str, value: Any) -> Any:
         return ids
     if name == "baud_rate":
         baud = _integer(name, value)
-        if baud <= 0:
-            raise ValueError(f"baud_rate: must be > 0, got {baud}")
+        if baud not in BAUD_VALUES:
+            raise ValueError(
+                f"baud_rate: {baud} is not a rate the servo and the Dynamixel SDK share; "
+                f"choose one of {sorted(BAUD_VALUES)}"
+            )
         return baud
-    return _positive(name, value)
+    return _bounded(name, name, value)
 
 
 def _limits(value: Any) -> tuple[tuple[float, float], ...]:
@@ -364,12 +408,41 @@ def _routing(value: Any) -> tuple[tuple[int, ...], ...]:
 
 def _check_relations(d: ArmDesign) -> None:
     """Checks between fields (each field is already valid on its own)."""
-    if d.axle_diameter / 2.0 + d.clearance >= d.hub_radius:
+    bore = d.axle_diameter / 2.0 + d.clearance
+    if bore + MIN_BORE_WALL > d.hub_radius:
         raise ValueError(
             f"hub_radius: {d.hub_radius:g} m leaves no wall around the axle bore "
-            f"(axle_diameter/2 + clearance = {d.axle_diameter / 2 + d.clearance:g} m)"
+            f"(axle_diameter/2 + clearance = {bore:g} m; the wall must be at least "
+            f"{MIN_BORE_WALL:g} m)"
         )
     if d.cable_diameter >= d.idler_width:
         raise ValueError(
             f"idler_width: {d.idler_width:g} m must exceed cable_diameter {d.cable_diameter:g} m"
+        )
+    if 2.0 * d.clearance > d.cheek_thickness:
+        raise ValueError(
+            f"clearance: {d.clearance:g} m is more than half the cheek_thickness "
+            f"{d.cheek_thickness:g} m"
+        )
+    for k, r in enumerate(d.joint_pulley_radii):
+        if r <= d.cable_diameter:
+            raise ValueError(
+                f"joint_pulley_radii[{k}]: {r:g} m must exceed cable_diameter "
+                f"{d.cable_diameter:g} m"
+            )
+    if d.motor_pulley_radius <= d.cable_diameter:
+        raise ValueError(
+            f"motor_pulley_radius: {d.motor_pulley_radius:g} m must exceed cable_diameter "
+            f"{d.cable_diameter:g} m"
+        )
+    for k, a in enumerate(d.link_lengths):
+        if 2 * d.hub_radius >= a:
+            raise ValueError(
+                f"hub_radius: {d.hub_radius * 1e3:g} mm hubs do not fit on link l{k} "
+                f"({a * 1e3:g} mm long); hub_radius must be below half of every link length"
+            )
+    if d.beam_width / 2 > d.hub_radius:
+        raise ValueError(
+            f"beam_width: {d.beam_width * 1e3:g} mm is wider than the hubs "
+            f"({2 * d.hub_radius * 1e3:g} mm)"
         )

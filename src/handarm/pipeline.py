@@ -18,6 +18,8 @@ from tqdm import tqdm
 
 from handarm._checks import check_design
 from handarm._io import write_text_atomic
+from handarm._outdir import build_folder, check_out_dir
+from handarm._resources import DEFAULT_MAX_MEMORY, DEFAULT_MAX_SECONDS, check_resources
 from handarm.cad_out.carve_files import OUTPUT_STEPS, write_carve_outputs
 from handarm.carve import CARVE_STEPS, CarveResult, carve, check_carvable
 from handarm.design import ArmDesign
@@ -72,6 +74,8 @@ def carve_design(
     *,
     resolution_deg: float = 1.0,
     progress: bool = False,
+    max_memory: float = DEFAULT_MAX_MEMORY,
+    max_seconds: float = DEFAULT_MAX_SECONDS,
 ):
     """Carve the design's links and write the carving outputs into ``out``.
 
@@ -85,6 +89,9 @@ def carve_design(
         Largest angle between swept poses (degrees, 0 < r <= 10).
     progress : bool
         Show a progress bar.
+    max_memory, max_seconds : float
+        Refuse (ValueError, with the estimate) a job estimated to need more memory (bytes)
+        or time (s) than this; defaults 4 GiB and one hour.
 
     Returns
     -------
@@ -98,6 +105,10 @@ def carve_design(
     """
     check_design(design)
     check_carvable(design)
+    check_resources(
+        design, resolution_deg=resolution_deg, max_memory=max_memory, max_seconds=max_seconds
+    )
+    out = check_out_dir(out)
     total = CARVE_STEPS + OUTPUT_STEPS
     with tqdm(total=total, desc="carving", unit="step", disable=not progress, leave=False) as bar:
 
@@ -154,6 +165,8 @@ def map_workspace(
     threshold: float = 0.5,
     sensitivity: bool = True,
     progress: bool = False,
+    max_memory: float = DEFAULT_MAX_MEMORY,
+    max_seconds: float = DEFAULT_MAX_SECONDS,
 ) -> list[Path]:
     """Map the workspace and write the map, scores and pictures into ``out``.
 
@@ -171,11 +184,26 @@ def map_workspace(
         Also measure how much each joint's limit matters.
     progress : bool
         Show a progress bar over IK queries.
+    max_memory, max_seconds : float
+        Refuse (ValueError, with the estimate) a job estimated to need more memory (bytes)
+        or time (s) than this; defaults 4 GiB and one hour.
 
     Returns
     -------
     list of Path
     """
+    check_design(design)
+    # the sensitivity study maps the design once more per joint and side
+    check_resources(
+        design,
+        voxel=voxel,
+        directions=directions,
+        max_memory=max_memory,
+        max_seconds=max_seconds / (13 if sensitivity else 1),
+    )
+    if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
+        raise ValueError(f"threshold: expected a number in (0, 1], got {threshold!r}")
+    out = check_out_dir(out)
     with tqdm(
         desc="workspace", unit="query", unit_scale=True, disable=not progress, leave=False
     ) as bar:
@@ -203,6 +231,8 @@ def build(
     voxel: float = 0.01,
     directions: int = 100,
     progress: bool = False,
+    max_memory: float = DEFAULT_MAX_MEMORY,
+    max_seconds: float = DEFAULT_MAX_SECONDS,
 ) -> BuildResult:
     """Everything for one design, written into ``out``: the main job.
 
@@ -222,6 +252,9 @@ def build(
         Workspace map settings (m, count).
     progress : bool
         Show progress bars.
+    max_memory, max_seconds : float
+        Refuse (ValueError, with the estimate) a job estimated to need more memory (bytes)
+        or time (s) than this; defaults 4 GiB and one hour.
 
     Returns
     -------
@@ -240,20 +273,31 @@ def build(
     ['arm_config.h', 'arm_straight.png']
     """
     check_design(design)
+    check_carvable(design)
+    limits = {"max_memory": max_memory, "max_seconds": max_seconds}
+    check_resources(design, voxel=voxel, directions=directions, **limits)
+    check_resources(design, resolution_deg=resolution_deg, **limits)
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [design.to_toml(out / "design.toml")]
-    summary = out / "summary.txt"
-    write_text_atomic(summary, design_summary(design))
-    files.append(summary)
-    carving, paths = carve_design(design, out, resolution_deg=resolution_deg, progress=progress)
-    files += paths
-    achieved = [j.achieved for j in carving.joints]
-    files += export_controller(design, out / "controller", achieved_limits=achieved)
-    files += map_workspace(
-        design, out / "workspace", voxel=voxel, directions=directions, progress=progress
-    )
-    from handarm.report import write_report  # plotly: loaded only when a report is made
+    with build_folder(out, design.to_dict()) as files:
+        files.append(design.to_toml(out / "design.toml"))
+        summary = out / "summary.txt"
+        write_text_atomic(summary, design_summary(design))
+        files.append(summary)
+        carving, paths = carve_design(
+            design, out, resolution_deg=resolution_deg, progress=progress, **limits
+        )
+        files += paths
+        achieved = [j.achieved for j in carving.joints]
+        files += export_controller(design, out / "controller", achieved_limits=achieved)
+        files += map_workspace(
+            design,
+            out / "workspace",
+            voxel=voxel,
+            directions=directions,
+            progress=progress,
+            **limits,
+        )
+        from handarm.report import write_report  # plotly: loaded only when a report is made
 
-    files.append(write_report(out))
+        files.append(write_report(out))
     return BuildResult(design, out, tuple(files), carving)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handarm._io import write_text_atomic
+from handarm._io import read_regular_bytes, write_text_atomic
 from handarm.cad_out.meshes import print_pose, rpy_from_matrix, write_3mf, write_stl
 from handarm.cad_out.pictures import arm_picture, folded_pose, link_picture
 from handarm.cad_out.urdf import LINK_NAMES, write_urdf
@@ -151,11 +151,11 @@ def read_achieved_limits(path: str | Path) -> list[tuple[float, float]]:
     """
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(read_regular_bytes(path))
         pairs = [j["achieved_deg"] for j in data["joints"]]
     except FileNotFoundError:
         raise FileNotFoundError(f"file not found: {path}") from None
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError) as exc:
+    except (ValueError, KeyError, TypeError) as exc:  # JSON, encoding, special file
         raise ValueError(f"{path}: not a handarm carve.json ({exc})") from None
     if len(pairs) != 6:
         raise ValueError(f"{path}: expected 6 joints, found {len(pairs)}")

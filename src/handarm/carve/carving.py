@@ -19,14 +19,14 @@ from manifold3d import Manifold, OpType
 
 from handarm._checks import check_design
 from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, prism, sweep_parts
-from handarm.design import ArmDesign
+from handarm.design import MIN_BORE_WALL, ArmDesign
 from handarm.links import MM, LinkBlank, Part, link_blank
 
 __all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"]
 
 _LIMIT_TOL = math.radians(0.05)
 _CONTACT_VOLUME = 1e-6  # mm^3: less than this is rounding, not contact
-_BORE_WALL = 1.0  # mm of wall around the axle bore that must survive carving
+_BORE_WALL = MIN_BORE_WALL * MM  # wall around the axle bore that must survive carving
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
@@ -88,17 +88,7 @@ def check_carvable(design: ArmDesign) -> None:
                     f"joint_limits[{k}]: {side} {math.degrees(v):g} deg; carving needs limits "
                     "below 180 degrees (a link cannot fold onto its neighbour)"
                 )
-    for k, a in enumerate(design.link_lengths):
-        if 2 * design.hub_radius >= a:
-            raise ValueError(
-                f"hub_radius: {design.hub_radius * MM:g} mm hubs do not fit on link l{k} "
-                f"({a * MM:g} mm long); hub_radius must be below half of every link length"
-            )
-    if design.beam_width / 2 > design.hub_radius:
-        raise ValueError(
-            f"beam_width: {design.beam_width * MM:g} mm is wider than the hubs "
-            f"({2 * design.hub_radius * MM:g} mm)"
-        )
+    # hub and beam sizes against link lengths are checked when the design loads
 
 
 def _to_link(blank: LinkBlank, part: Part) -> Manifold:
@@ -211,7 +201,9 @@ def carve(
     cut_dist: list[Manifold | None] = [None] * 7
     for j in range(1, 7):
         lo, hi = design.joint_limits[j - 1]
-        lo, hi, sp, sd = _largest_healthy_range(blanks, solids, j, lo, hi, step, grow)
+        lo, hi, sp, sd = _largest_healthy_range(
+            blanks, solids, j, lo, hi, step, grow, cut_prox[j - 1], design
+        )
         carve_limits.append((lo, hi))
         cut_dist[j - 1], cut_prox[j] = sp, sd
         tick(f"joint {j} sweeps")
@@ -229,8 +221,15 @@ def carve(
     return CarveResult(design, tuple(links), tuple(joints), resolution_deg)
 
 
-def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow):
-    """Carve joint j's range if both links survive it, else the largest scaled range that does."""
+def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, design):
+    """Carve joint j's range if both links survive it, else the largest scaled range that does.
+
+    The proximal link is judged with ``prev_cut`` (what joint j-1 already took from it) as
+    well, so a link is healthy under its combined cuts. Raises ValueError naming the joint,
+    the link and the design field when not even the joint held still leaves healthy links.
+    """
+    prox = solids[j - 1] if prev_cut is None else solids[j - 1] - prev_cut
+    carved = (lambda sp: prox - sp, lambda sd: solids[j] - sd)
 
     def cuts(f):
         sp = _sweep_into_proximal(blanks, solids, j, lo * f, hi * f, step, grow)
@@ -238,13 +237,22 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow):
         return sp, sd
 
     def ok(sp, sd):
-        return _healthy(blanks[j - 1], solids[j - 1] - sp) and _healthy(blanks[j], solids[j] - sd)
+        return _healthy(blanks[j - 1], carved[0](sp)) and _healthy(blanks[j], carved[1](sd))
 
     sp, sd = cuts(1.0)
     if ok(sp, sd):
         return lo, hi, sp, sd
     good, bad = 0.0, 1.0
     best = cuts(0.0)
+    if not ok(*best):
+        k = 0 if not _healthy(blanks[j - 1], carved[0](best[0])) else 1
+        blank, solid = blanks[j - 1 + k], carved[k](best[k])
+        split = solid.is_empty() or len(solid.decompose()) != 1
+        raise ValueError(
+            f"{_culprit(design, split)}: joint {j} leaves link {blank.name} "
+            f"{'in pieces' if split else 'without its bore wall'} even held still; "
+            "no printable range exists"
+        )
     for _ in range(10):
         mid = 0.5 * (good + bad)
         trial = cuts(mid)
@@ -253,6 +261,15 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow):
         else:
             bad = mid
     return lo * good, hi * good, best[0], best[1]
+
+
+def _culprit(design: ArmDesign, split: bool) -> str:
+    """The design field most likely to make a carved link unhealthy."""
+    if not split:
+        return "axle_diameter"
+    if 4 * design.hub_radius > min(design.link_lengths):
+        return "hub_radius"
+    return "clearance"
 
 
 def _in_joint_frame(link: CarvedLink, which: str) -> Manifold:

@@ -1,30 +1,112 @@
 """The ``handarm`` command: argument parsing only; every action is a library call.
 
-A user mistake (missing file, bad TOML, bad value) prints one line and exits with status 2;
-a refusal by the servo bus or a solver exits with 3; Ctrl-C exits with 130.
+Exit statuses (one source: ``EXIT_CODES``, printed in the README's table):
+
+==== ==========================================================================
+code meaning
+==== ==========================================================================
+0    success
+1    the command ran but found no answer (``ik`` with no solution)
+2    a user mistake: missing file, bad TOML, bad value or option, too big a job,
+     an output path that is not a folder or regular file; one line on stderr
+3    refused by the servo bus or a solver, or out of memory; one line on stderr
+130  interrupted (Ctrl-C); one line on stderr
+==== ==========================================================================
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import os
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 
 from handarm import __version__
 from handarm.cli import bridge, build, ik, report, workspace
-from handarm.cli._common import UsageError, option_error
+from handarm.cli._common import Parser, UsageError, option_error
 
-__all__ = ["main", "make_parser", "UsageError"]
+__all__ = ["main", "make_parser", "UsageError", "EXIT_CODES"]
 
 _RUNTIME_OPTIONS = {"port": "--port", "baud": "--baud", "scheduler": "--scheduler"}
 
 EXIT_OK, EXIT_NO_SOLUTION, EXIT_USAGE, EXIT_REFUSED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
+#: Every exit status of the ``handarm`` command and what it means (the README's table).
+EXIT_CODES = {
+    EXIT_OK: "success",
+    EXIT_NO_SOLUTION: "the command ran but found no answer (`ik` with no solution)",
+    EXIT_USAGE: "a user mistake (file, value, option, a job over the resource limit); one line",
+    EXIT_REFUSED: "refused by the servo bus or a solver, or out of memory; one line",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C); one line",
+}
+
+#: Heavy modules each command needs, imported before the command runs; Ctrl-C meanwhile
+#: ends the process at once (nothing is written yet), since some libraries' import guards
+#: catch BaseException and would swallow a KeyboardInterrupt.
+_PRELOAD = {
+    "study": ("handarm.pipeline", "handarm.workspace.study_run", "dask.distributed"),
+    "ik": ("handarm.ik",),
+}
+_PRELOAD_DEFAULT = ("handarm.pipeline",)
+
+
+#: Seconds a KeyboardInterrupt may take to end the command before the process is ended
+#: outright: some libraries (Dask's client among them) catch it and carry on.
+_GRACE = 5.0
+
+
+class _Interrupts:
+    """SIGINT handler: raises KeyboardInterrupt, or while importing exits at once (130).
+
+    After the first Ctrl-C a watchdog ends the process (status 130) if the command has not
+    ended within ``_GRACE`` seconds. A hard exit leaves at most a hidden ``.tmp`` file (the
+    next run removes it) and a build folder still marked incomplete: both true states.
+    """
+
+    def __init__(self) -> None:
+        self.seen = False
+        self.importing = False
+        self.reported = False
+        self.name = "handarm"
+
+    def __call__(self, signum, frame) -> None:
+        if self.importing:
+            self.exit_now()
+        if not self.seen:
+            self.seen = True
+            watchdog = threading.Timer(_GRACE, self.exit_now)
+            watchdog.daemon = True
+            watchdog.start()
+        raise KeyboardInterrupt
+
+    def exit_now(self) -> None:
+        if not self.reported:
+            os.write(2, f"{self.name}: interrupted\n".encode())
+        os._exit(EXIT_INTERRUPTED)
+
+    @contextmanager
+    def imports(self):
+        self.importing = True
+        try:
+            yield
+        finally:
+            self.importing = False
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if one arrived (and was perhaps swallowed) since start."""
+        if self.seen:
+            raise KeyboardInterrupt
+
 
 def make_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``handarm`` command."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="handarm",
         description="Design, carve, solve and drive small coupled-tendon robot arms.",
+        epilog="exit status: " + "; ".join(f"{code} {text}" for code, text in EXIT_CODES.items()),
     )
     parser.add_argument("--version", action="version", version=f"handarm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -36,18 +118,39 @@ def make_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
-    parser = make_parser()
-    args = parser.parse_args(argv)
-    name = " ".join(filter(None, (args.command, getattr(args, "bridge_command", None))))
+    interrupts = _Interrupts()
+    previous = signal.signal(signal.SIGINT, interrupts)
+    name = "handarm"
     try:
-        return args.func(args)
+        parser = make_parser()
+        args = parser.parse_args(argv)
+        name = interrupts.name = " ".join(
+            filter(None, ("handarm", args.command, getattr(args, "bridge_command", None)))
+        )
+        with interrupts.imports():
+            for module in _PRELOAD.get(args.command, _PRELOAD_DEFAULT):
+                importlib.import_module(module)
+        status = args.func(args)
+        interrupts.check()  # a library that swallowed Ctrl-C does not make it a success
+        return status
+    except KeyboardInterrupt:
+        interrupts.reported = True
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except (UsageError, ValueError, OSError) as exc:
-        print(f"handarm {name}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
+    except MemoryError:
+        print(f"{name}: error: out of memory; ask for a smaller job", file=sys.stderr)
+        return EXIT_REFUSED
     except RuntimeError as exc:  # the servo bus (BusError) or a solver said no
         exc = option_error(exc, _RUNTIME_OPTIONS)
-        print(f"handarm {name}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_REFUSED
-    except KeyboardInterrupt:
-        print(f"handarm {name}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message of ``exc`` on one line (library messages sometimes span several)."""
+    return " ".join(str(exc).split()) or type(exc).__name__

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Mapping
 
+from handarm._resources import DEFAULT_MAX_MEMORY, DEFAULT_MAX_SECONDS
 from handarm.design import ArmDesign
 
 
@@ -41,3 +43,54 @@ def option_error(exc: Exception, options: Mapping[str, str]) -> UsageError:
             msg = option + msg[len(name) :]
             break
     return UsageError(msg)
+
+
+def number(kind: type = float, *, low: float | None = None, high: float | None = None):
+    """An argparse ``type``: a finite ``kind`` within [low, high], else a one-line error."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {kind.__name__}, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+        if (low is not None and value < low) or (high is not None and value > high):
+            lo = "-inf" if low is None else f"{low:g}"
+            hi = "inf" if high is None else f"{high:g}"
+            span = f"{lo} .. {hi}"
+            raise argparse.ArgumentTypeError(f"must be within {span}, got {text!r}")
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
+def add_limits(p: argparse.ArgumentParser) -> None:
+    """--max-memory and --max-minutes: the limits a job's estimate is held against."""
+    p.add_argument(
+        "--max-memory",
+        type=number(low=0.001),
+        default=DEFAULT_MAX_MEMORY / 2**30,
+        metavar="GIB",
+        help="refuse a job estimated to need more memory (default %(default)g GiB)",
+    )
+    p.add_argument(
+        "--max-minutes",
+        type=number(low=0.001),
+        default=DEFAULT_MAX_SECONDS / 60,
+        metavar="MIN",
+        help="refuse a job estimated to take longer (default %(default)g min)",
+    )
+
+
+def limits(args: argparse.Namespace) -> dict:
+    """The library's ``max_memory`` / ``max_seconds`` arguments from the options."""
+    return {"max_memory": args.max_memory * 2**30, "max_seconds": args.max_minutes * 60}
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage dump), exit status 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")

@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 
 import numpy as np
 
-from handarm.cli._common import UsageError, add_design_arg, load_design, option_error
+from handarm.cli._common import UsageError, add_design_arg, load_design, number, option_error
 
 _BUS_OPTIONS = {"port": "--port", "baud": "--baud", "calibration": "--calibration"}
 
@@ -121,6 +122,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from handarm.firmware_bridge.bus import record_calibration
 
     design = load_design(args.design)
+    if os.path.lexists(args.out) and not args.force:
+        raise UsageError(f"--out: {args.out} exists; add --force to overwrite it")
     with _bus(args, design) as bus:
         calibration = record_calibration(bus, design)
     print(calibration.save(args.out))
@@ -198,7 +201,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--max-torque",
-        type=float,
+        type=number(low=0.0, high=1.0),
         default=1.0,
         metavar="FRACTION",
         help="Max Torque register as a fraction of 1023 (default 1)",
@@ -213,20 +216,20 @@ def register(sub) -> None:
     add_design_arg(p)
     p.add_argument(
         "--safety",
-        type=float,
+        type=number(low=0.01, high=1.0),
         default=0.5,
         help="fraction of the servo's stall torque a motor may use (default 0.5)",
     )
     p.add_argument(
         "--min-speed",
-        type=float,
+        type=number(low=0.0, high=1e4),
         default=180.0,
         metavar="DEG_S",
         help="slowest acceptable joint speed, deg/s (default 180)",
     )
     p.add_argument(
         "--radius-range",
-        type=float,
+        type=number(low=0.1, high=1000.0),
         nargs=2,
         default=(4.0, 20.0),
         metavar=("MIN_MM", "MAX_MM"),
@@ -243,14 +246,21 @@ def register(sub) -> None:
     for name, func, help_text, needs_cal in _LIVE:
         p = bsub.add_parser(name, help=help_text, description=help_text[0].upper() + help_text[1:])
         if name == "goto":
-            p.add_argument("q", nargs=6, type=float, metavar="Q", help="joint targets, degrees")
+            p.add_argument(
+                "q",
+                nargs=6,
+                type=number(low=-360, high=360),
+                metavar="Q",
+                help="joint targets, degrees",
+            )
             p.add_argument("--design", metavar="DESIGN.toml", help="arm design")
         else:
             add_design_arg(p)
         p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
-        p.add_argument("--baud", type=int, help="bit rate (default: the design's)")
+        p.add_argument("--baud", type=number(int, low=1), help="bit rate (default: the design's)")
         if name == "calibrate":
             p.add_argument("--out", default="calibration.json", help="calibration file to write")
+            p.add_argument("--force", action="store_true", help="overwrite an existing --out")
         else:
             p.add_argument(
                 "--calibration",

@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 
-from handarm.cli._common import add_design_arg, add_quiet, load_design
+from handarm.cli._common import add_design_arg, add_limits, add_quiet, limits, load_design, number
 
 
 def cmd_build(args: argparse.Namespace) -> int:
     """Everything for one design."""
     from handarm.pipeline import build
 
-    result = build(load_design(args.design), args.out, progress=not args.quiet)
+    result = build(load_design(args.design), args.out, progress=not args.quiet, **limits(args))
     for path in result.files:
         print(path)
     return 0
@@ -23,7 +23,11 @@ def cmd_carve(args: argparse.Namespace) -> int:
     from handarm.pipeline import carve_design
 
     carving, files = carve_design(
-        load_design(args.design), args.out, resolution_deg=args.resolution, progress=not args.quiet
+        load_design(args.design),
+        args.out,
+        resolution_deg=args.resolution,
+        progress=not args.quiet,
+        **limits(args),
     )
     print("joint  requested (deg)     achieved (deg)      stopped by (upper side)")
     for j in carving.joints:
@@ -58,6 +62,7 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--out", default="build", help="output folder (default: build)")
+    add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_build)
 
@@ -71,11 +76,12 @@ def register(sub) -> None:
     p.add_argument("--out", default="build/carve", help="output folder (default: build/carve)")
     p.add_argument(
         "--resolution",
-        type=float,
+        type=number(low=0.01, high=10.0),
         default=1.0,
         metavar="DEG",
-        help="largest angle between swept poses, degrees (default 1)",
+        help="largest angle between swept poses, degrees, 0.01..10 (default 1)",
     )
+    add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_carve)
 

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from handarm.cli._common import UsageError, load_design, option_error
+from handarm.cli._common import UsageError, load_design, number, option_error
 
 _OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current", "clearance": "--clearance"}
 
@@ -62,7 +62,7 @@ def register(sub) -> None:
     p.add_argument(
         "--pos",
         nargs=3,
-        type=float,
+        type=number(low=-10.0, high=10.0),
         required=True,
         metavar=("X", "Y", "Z"),
         help="tool point in metres, base frame",
@@ -70,14 +70,18 @@ def register(sub) -> None:
     p.add_argument(
         "--dir",
         nargs=3,
-        type=float,
+        type=number(low=-1e6, high=1e6),
         required=True,
         metavar=("DX", "DY", "DZ"),
         help="tool direction (any length but zero)",
     )
     p.add_argument("--design", metavar="DESIGN.toml", help="arm design (default: the paper's arm)")
     p.add_argument(
-        "--current", nargs=6, type=float, metavar="Q", help="present joint angles, degrees"
+        "--current",
+        nargs=6,
+        type=number(low=-360, high=360),
+        metavar="Q",
+        help="present joint angles, degrees",
     )
     p.add_argument("--exact", action="store_true", help="no graceful degradation")
     p.add_argument(

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 import json
 
-from handarm.cli._common import add_design_arg, add_quiet, load_design, option_error
+from handarm.cli._common import (
+    add_design_arg,
+    add_limits,
+    add_quiet,
+    limits,
+    load_design,
+    number,
+    option_error,
+)
 
 _MAP_OPTIONS = {
     "voxel": "--voxel",
@@ -28,6 +36,7 @@ def cmd_workspace(args: argparse.Namespace) -> int:
             threshold=args.threshold,
             sensitivity=not args.no_sensitivity,
             progress=not args.quiet,
+            **limits(args),
         )
     except ValueError as exc:
         raise option_error(exc, _MAP_OPTIONS) from None
@@ -88,11 +97,19 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--out", default="build/workspace", help="output folder")
-    p.add_argument("--voxel", type=float, default=0.01, metavar="M", help="voxel edge, m (0.01)")
-    p.add_argument("--directions", type=int, default=100, help="approach directions (100)")
     p.add_argument(
-        "--threshold", type=float, default=0.5, help="reachability index counted as dexterous (0.5)"
+        "--voxel", type=number(low=1e-4), default=0.01, metavar="M", help="voxel edge, m (0.01)"
     )
+    p.add_argument(
+        "--directions", type=number(int, low=4), default=100, help="approach directions (100)"
+    )
+    p.add_argument(
+        "--threshold",
+        type=number(low=1e-9, high=1.0),
+        default=0.5,
+        help="reachability index counted as dexterous, (0, 1] (0.5)",
+    )
+    add_limits(p)
     p.add_argument("--no-sensitivity", action="store_true", help="skip per-joint sensitivity")
     add_quiet(p)
     p.set_defaults(func=cmd_workspace)
@@ -109,6 +126,8 @@ def register(sub) -> None:
         metavar="tcp://HOST:8786",
         help="a Dask scheduler to run on (default: local processes)",
     )
-    p.add_argument("--workers", type=int, help="local worker processes (default 2)")
+    p.add_argument(
+        "--workers", type=number(int, low=1, high=64), help="local worker processes (default 2)"
+    )
     add_quiet(p)
     p.set_defaults(func=cmd_study)

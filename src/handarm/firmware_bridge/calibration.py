@@ -13,8 +13,9 @@ import json
 import os
 from pathlib import Path
 
-from handarm._io import write_text_atomic
+from handarm._io import read_regular_bytes, write_text_atomic
 from handarm.design import ArmDesign
+from handarm.firmware_bridge.mx64 import MULTI_TURN_LIMIT
 
 __all__ = ["Calibration", "SCHEMA"]
 
@@ -78,26 +79,54 @@ class Calibration:
         """Read a calibration file; with ``design``, refuse one that does not match it."""
         path = Path(path)
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(read_regular_bytes(path), parse_constant=_no_constant)
         except FileNotFoundError:
             raise FileNotFoundError(f"calibration file not found: {path}") from None
-        except json.JSONDecodeError as exc:
+        except ValueError as exc:  # JSON syntax, encoding, NaN/Infinity, special file
             raise ValueError(f"{path}: not valid JSON: {exc}") from None
         if not isinstance(data, dict) or data.get("schema") != SCHEMA:
             raise ValueError(f"{path}: not a handarm calibration (schema {SCHEMA!r} expected)")
         try:
             cal = cls(
-                str(data["design_name"]),
-                str(data["servo_model"]),
-                int(data["model_number"]),
-                tuple(int(v) for v in data["servo_ids"]),
-                tuple(int(v) for v in data["offsets"]),
-                str(data["recorded_at"]),
+                _strict(data, "design_name", str),
+                _strict(data, "servo_model", str),
+                _strict(data, "model_number", int),
+                _ints(data, "servo_ids", 0, 252),
+                _ints(data, "offsets", -MULTI_TURN_LIMIT, MULTI_TURN_LIMIT),
+                _strict(data, "recorded_at", str),
             )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"{path}: calibration field missing or malformed: {exc}") from None
-        if len(cal.offsets) != 6 or len(cal.servo_ids) != 6:
-            raise ValueError(f"{path}: calibration needs 6 servo_ids and 6 offsets")
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
         if design is not None:
             cal.check_matches(design)
         return cal
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a number a calibration can hold")
+
+
+def _strict(data: dict, key: str, kind: type):
+    """``data[key]`` if it is exactly of ``kind`` (no bool for int, no coercion)."""
+    if key not in data:
+        raise ValueError(f"{key}: missing")
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, kind):
+        raise ValueError(f"{key}: expected {kind.__name__}, got {type(value).__name__} {value!r}")
+    return value
+
+
+def _ints(data: dict, key: str, lo: int, hi: int) -> tuple[int, ...]:
+    """Six integers within [lo, hi] (JSON numbers like 1.9, true or "1" are refused)."""
+    values = _strict(data, key, list)
+    if len(values) != 6:
+        raise ValueError(f"{key}: expected 6 values, got {len(values)}")
+    out = []
+    for k, v in enumerate(values):
+        v = _strict({f"{key}[{k}]": v}, f"{key}[{k}]", int)
+        if not lo <= v <= hi:
+            raise ValueError(f"{key}[{k}]: {v} is outside {lo}..{hi}")
+        out.append(v)
+    if key == "servo_ids" and len(set(out)) != 6:
+        raise ValueError(f"servo_ids: IDs must be distinct, got {out}")
+    return tuple(out)

@@ -180,7 +180,7 @@ def max_payload(
         tb = np.einsum("nkx,dx->nkd", mb, g).reshape(-1)
         cons.append(cp.abs(ta + m * tb) <= limit)
     problem = cp.Problem(cp.Maximize(m), cons)
-    problem.solve()
+    _solve(problem)
     bare = (
         np.linalg.norm(ma, axis=-1)
         if directions is None
@@ -265,7 +265,7 @@ def size_pulleys(
         # motor torques = rho * S^-T diag(w) tau_joint: linear in w for a fixed payload
         motor = rho * cp.multiply(joint, cp.reshape(w, (1, 6), order="C")) @ s_inv_t.T
         prob = cp.Problem(cp.Minimize(cp.sum(w)), [cp.abs(motor) <= limit, w >= w_lo, w <= w_hi])
-        prob.solve()
+        _solve(prob)
         return prob.status in ("optimal", "optimal_inaccurate"), w.value
 
     ok, best_w = feasible(0.0)
@@ -338,3 +338,11 @@ def sizing_report(
         "sizing_gravity": "26 gravity directions",
         "min_joint_speed_deg_s": math.degrees(min_speed),
     }
+
+
+def _solve(problem) -> None:
+    """Solve a cvxpy problem; a solver failure becomes RuntimeError (CLI exit status 3)."""
+    try:
+        problem.solve()
+    except cp.SolverError as exc:
+        raise RuntimeError(f"solver: cvxpy could not solve the sizing problem: {exc}") from None

@@ -255,7 +255,7 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
         "<p>Joint angles: each slider spans the joint's usable range, the limits the carved "
         "links achieve within the design's limits.</p>"
         + "".join(controls)
-        + '<p>Verdict (design limits and the printed-link collision model, evaluated live): '
+        + "<p>Verdict (design limits and the printed-link collision model, evaluated live): "
         '<span id="verdict" class="verdict unknown"></span></p>'
         f"<p>Named poses:<br>{buttons}</p>"
         "</div></div>"

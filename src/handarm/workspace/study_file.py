@@ -39,6 +39,7 @@ import os
 import tomllib
 from pathlib import Path
 
+from handarm._io import read_regular_bytes
 from handarm.design import ArmDesign
 from handarm.workspace.scores import DEFAULT_WEIGHTS
 
@@ -103,10 +104,10 @@ def load_study(path: str | os.PathLike[str]) -> Study:
     """
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(read_regular_bytes(path).decode("utf-8"))
     except FileNotFoundError:
         raise FileNotFoundError(f"study file not found: {path}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:  # TOML syntax, encoding, a FIFO or device
         raise ValueError(f"{path}: not valid TOML: {exc}") from None
     unknown = sorted(set(data) - _STUDY_KEYS)
     if unknown:

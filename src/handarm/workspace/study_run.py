@@ -12,12 +12,15 @@ import io
 import json
 import math
 import os
+import signal
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from handarm._io import write_bytes_atomic, write_text_atomic
+from handarm._outdir import check_out_dir
+from handarm._resources import check_resources
 from handarm.carve import carve
 from handarm.carve.properties import link_properties
 from handarm.design import ArmDesign
@@ -114,7 +117,12 @@ def run_study(
     dict
         ``computed`` (designs evaluated now), ``reused`` (found on disk), ``rows``.
     """
-    out = Path(out)
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
+    ):
+        raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
+    check_resources(study.base, voxel=study.voxel, directions=study.directions)
+    out = check_out_dir(out)
     settings = {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold}
     pending, reused = [], 0
     for name, params, design in study.designs:
@@ -175,13 +183,19 @@ def _compute(pending, settings, weights, out, scheduler, workers, progress, done
     cluster = None
     if scheduler is None:
         n = workers or min(2, len(pending))
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=40,
-        )
+        # worker processes inherit an ignored SIGINT: Ctrl-C reaches only this process,
+        # which closes the cluster, instead of every worker printing a traceback
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=50,
+            )
+        finally:
+            signal.signal(signal.SIGINT, previous)
         client = Client(cluster)
         threads = max(1, (os.cpu_count() or 2) // n)
     else:

@@ -1,0 +1,33 @@
+"""The ``handarm`` console script: Ctrl-C handled from the first instant.
+
+Importing the ``handarm`` package (numpy, numba) takes a second or more, and a SIGINT
+during an import must not print a traceback or be swallowed by a library's import guard.
+This module lives outside the package so that it can take over SIGINT before anything
+heavy is imported; ``handarm.cli.main`` then installs its own handler.
+"""
+
+from __future__ import annotations
+
+import _signal  # built in: no file to import before the handler is in place
+import os
+import sys
+
+
+def _abort(signum, frame) -> None:  # nothing has been written yet: leave at once
+    os.write(2, b"handarm: interrupted\n")
+    os._exit(130)
+
+
+_signal.signal(_signal.SIGINT, _abort)  # at import: the console script imports, then calls
+
+
+def main() -> int:
+    """Run ``handarm.cli.main`` with Ctrl-C ending the process cleanly during imports."""
+    _signal.signal(_signal.SIGINT, _abort)
+    from handarm.cli import main as run
+
+    return run()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
