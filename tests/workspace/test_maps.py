@@ -17,7 +17,7 @@ def design():
 
 @pytest.fixture(scope="module")
 def coarse(design):
-    return reachability_map(design, 0.03, 40)
+    return reachability_map(design, 0.03, 36)
 
 
 def test_direction_set_is_even_and_mirror_symmetric():
@@ -36,7 +36,7 @@ def test_direction_set_is_even_and_mirror_symmetric():
 
 def test_mirrored_map_equals_the_full_computation(design, coarse):
     assert coarse.mirrored == (True, True)
-    full = reachability_map(design, 0.03, 40, use_symmetry=False)
+    full = reachability_map(design, 0.03, 36, use_symmetry=False)
     assert full.mirrored == (False, False)
     np.testing.assert_array_equal(coarse.index, full.index)
     np.testing.assert_array_equal(coarse.mean_solutions, full.mean_solutions)

@@ -10,7 +10,7 @@ import argparse
 import sys
 
 from handarm import __version__
-from handarm.cli import bridge, build, ik, workspace
+from handarm.cli import bridge, build, ik, optimize, workspace
 from handarm.cli._common import UsageError, option_error
 
 __all__ = ["main", "make_parser", "UsageError"]
@@ -29,7 +29,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"handarm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for module in (build, ik, bridge, workspace):
+    for module in (build, ik, bridge, workspace, optimize):
         module.register(sub)
     return parser
 

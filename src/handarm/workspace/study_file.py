@@ -42,7 +42,7 @@ from pathlib import Path
 from handarm.design import ArmDesign
 from handarm.workspace.scores import DEFAULT_WEIGHTS
 
-__all__ = ["Study", "load_study", "design_key"]
+__all__ = ["Study", "apply_params", "load_study", "design_key"]
 
 _SETTINGS = ("voxel", "directions", "threshold")
 _STUDY_KEYS = {"name", "design", "grid", "designs", "weights", *_SETTINGS}
@@ -61,27 +61,52 @@ class Study:
     weights: dict = dataclasses.field(default_factory=dict)
 
 
-def _apply(base: ArmDesign, params: dict, where: str) -> ArmDesign:
+def apply_params(base: ArmDesign, params: dict, where: str) -> ArmDesign:
+    """The base design with named parameters applied.
+
+    ``limit_deg_K`` sets a symmetric limit of joint K (degrees), ``link_length_K`` sets a_K
+    (m, K = 0..6), ``pulley_radius_K`` the joint pulley K (m); any other name is an
+    ``ArmDesign`` field.
+
+    Raises
+    ------
+    ValueError
+        If a name or value is wrong or the design is invalid; the message starts with
+        ``where``.
+    """
     limits = list(base.joint_limits)
+    lengths = list(base.link_lengths)
+    radii = list(base.joint_pulley_radii)
     fields = {}
+    indexed = {"limit_deg_": (1, 6), "link_length_": (0, 6), "pulley_radius_": (1, 6)}
     for key, value in params.items():
-        if key.startswith("limit_deg_"):
-            try:
-                k = int(key.removeprefix("limit_deg_"))
-            except ValueError:
-                k = 0
-            if not 1 <= k <= 6:
-                raise ValueError(f"{where}: {key!r}: joint number must be 1..6")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
-                raise ValueError(
-                    f"{where}: {key}: expected a positive number of degrees, got {value!r}"
-                )
-            limits[k - 1] = (-math.radians(value), math.radians(value))
-        else:
+        prefix = next((p for p in indexed if key.startswith(p)), None)
+        if prefix is None:
             fields[key] = value
+            continue
+        lo, hi = indexed[prefix]
+        try:
+            k = int(key.removeprefix(prefix))
+        except ValueError:
+            k = -1
+        if not lo <= k <= hi:
+            raise ValueError(f"{where}: {key!r}: number must be {lo}..{hi}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise ValueError(f"{where}: {key}: expected a positive number, got {value!r}")
+        if prefix == "limit_deg_":
+            limits[k - 1] = (-math.radians(value), math.radians(value))
+        elif prefix == "link_length_":
+            lengths[k] = float(value)
+        else:
+            radii[k - 1] = float(value)
     try:
-        return base.replace(joint_limits=tuple(limits), **fields)
-    except ValueError as exc:
+        return base.replace(
+            joint_limits=tuple(limits),
+            link_lengths=tuple(lengths),
+            joint_pulley_radii=tuple(radii),
+            **fields,
+        )
+    except (ValueError, TypeError) as exc:
         raise ValueError(f"{where}: {exc}") from None
 
 
@@ -132,7 +157,7 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         for combo in itertools.product(*(grid[k] for k in keys)):
             params = dict(zip(keys, combo, strict=True))
             name = ",".join(f"{k}={v}" for k, v in params.items())
-            designs.append((name, params, _apply(base, params, f"{path}: grid {name}")))
+            designs.append((name, params, apply_params(base, params, f"{path}: grid {name}")))
     entries = data.get("designs", [])
     if not isinstance(entries, list):
         raise ValueError(f"{path}: designs: expected an array of tables ([[designs]])")
@@ -143,7 +168,7 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         name = entry.get("name", f"design{n}")
         if not isinstance(name, str) or not name:
             raise ValueError(f"{path}: designs[{n}].name: expected a non-empty string")
-        designs.append((name, params, _apply(base, params, f"{path}: designs[{n}] ({name})")))
+        designs.append((name, params, apply_params(base, params, f"{path}: designs[{n}] ({name})")))
     if not designs:
         designs.append(("base", {}, base))
     names = [d[0] for d in designs]
