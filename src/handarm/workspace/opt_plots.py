@@ -53,8 +53,11 @@ def _importances(opt, study) -> dict:
 
 
 def optimization_pictures(opt, study, rows, pareto, folder: Path) -> list[Path]:
-    """Write ``pareto.png``, ``hypervolume.png``, ``parallel.png``, ``importance.png`` and
-    ``optimize.html`` into ``folder``; returns the paths."""
+    """Write the pictures into ``folder``; returns their paths.
+
+    ``pareto.png``, ``hypervolume.png``, ``parallel.png``, ``importance.png`` and
+    ``optimize.html`` (the same, interactive: hover a point for its trial and variables).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -466,7 +466,7 @@ def _pareto(opt: OptFile, rows: list[dict]) -> list[bool]:
         if keep[i]:
             pts[i] = sign * np.array(_values(opt, r["measurements"]))
     out = []
-    for i, r in enumerate(rows):
+    for i in range(len(rows)):
         if not keep[i]:
             out.append(False)
             continue
