@@ -41,9 +41,9 @@ def cmd_workspace(args: argparse.Namespace) -> int:
     print(f"{report['ik_queries']} IK queries at {report['ik_queries_per_second']:,.0f}/s")
     if "sensitivity" in report:
         print(
-            "most sensitive joints (reachable, dexterous): "
-            f"{report['sensitivity']['most_sensitive_reachable']}, "
-            f"{report['sensitivity']['most_sensitive_dexterous']}"
+            "joints by Morris mu* (reachable, dexterous): "
+            f"{report['sensitivity']['ranking_reachable']}, "
+            f"{report['sensitivity']['ranking_dexterous']}"
         )
     print(f"wrote {args.out}")
     return 0

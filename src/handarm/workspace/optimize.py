@@ -36,6 +36,7 @@ import numpy as np
 
 from handarm._io import write_text_atomic
 from handarm.design import ArmDesign
+from handarm.workspace._dask import close_client, open_client
 from handarm.workspace.opt_file import CONSTRAINTS, OptFile
 
 __all__ = [
@@ -346,34 +347,13 @@ def run_optimization(
     return {"new": new, "finished": finished + new, **result}
 
 
-def _client(scheduler, workers):
-    from dask.distributed import Client, LocalCluster
-
-    if scheduler is None:
-        n = workers or 2
-        cluster = LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=40,
-        )
-        return Client(cluster), cluster, max(1, (os.cpu_count() or 2) // n), n
-    try:
-        client = Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError) as exc:
-        raise RuntimeError(f"scheduler: cannot reach {scheduler}: {exc}") from None
-    n = workers or max(1, len(client.scheduler_info().get("workers", {})))
-    return client, None, None, n
-
-
 def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total) -> int:
     import optuna
     from dask.distributed import as_completed
 
     dists = _distributions(opt)
     poses = None if opt.task_poses is None else opt.task_poses.tolist()
-    client, cluster, threads, inflight_max = _client(scheduler, workers)
+    client, cluster, threads, inflight_max = open_client(scheduler, workers)
     asked = done = 0
     running = {}
 
@@ -430,9 +410,7 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
                 progress(finished, total, *_front_stats(opt, study))
             ask_one(ac)
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        close_client(client, cluster)
     return done
 
 

@@ -5,7 +5,7 @@ A study file (TOML)::
     name = "joints-2-and-5"
     design = "arm.toml"          # optional, relative to the study file; default: the paper's arm
     voxel = 0.02                 # map settings for every design (m, count, index threshold)
-    directions = 48
+    directions = 56
     threshold = 0.5
 
     [grid]                       # every combination of these
@@ -40,9 +40,10 @@ import tomllib
 from pathlib import Path
 
 from handarm.design import ArmDesign
+from handarm.workspace.maps import MIN_WIDTH, direction_set
 from handarm.workspace.scores import DEFAULT_WEIGHTS
 
-__all__ = ["Study", "apply_params", "load_study", "design_key"]
+__all__ = ["Study", "apply_params", "load_study", "design_key", "study_settings"]
 
 _SETTINGS = ("voxel", "directions", "threshold")
 _STUDY_KEYS = {"name", "design", "grid", "designs", "weights", *_SETTINGS}
@@ -56,7 +57,7 @@ class Study:
     base: ArmDesign
     designs: tuple[tuple[str, dict, ArmDesign], ...]  # (name, parameters, design)
     voxel: float = 0.02
-    directions: int = 48
+    directions: int = 56
     threshold: float = 0.5
     weights: dict = dataclasses.field(default_factory=dict)
 
@@ -193,6 +194,10 @@ def _settings(path: Path, data: dict) -> dict:
         v = data["directions"]
         if isinstance(v, bool) or not isinstance(v, int) or v < 4:
             raise ValueError(f"{path}: directions: expected an integer >= 4, got {v!r}")
+        try:
+            direction_set(v)  # honoured exactly or refused with the nearest valid counts
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
         out["directions"] = v
     if "threshold" in data:
         v = data["threshold"]
@@ -223,3 +228,13 @@ def design_key(design: ArmDesign, settings: dict) -> str:
     """A short hash of a design and the map settings: the name of its result files."""
     blob = json.dumps({"design": design.to_dict(), "settings": settings}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def study_settings(study: Study) -> dict:
+    """The map settings a study's results are computed with and keyed by."""
+    return {
+        "voxel": study.voxel,
+        "directions": study.directions,
+        "threshold": study.threshold,
+        "min_width": MIN_WIDTH,
+    }
