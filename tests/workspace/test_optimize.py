@@ -141,9 +141,14 @@ def test_paper_3r_section_check_is_a_subset_count():
     s = paper_3r_section_check(handarm.ArmDesign(), samples=200_000)
     assert s["area_mm2"] > 0
     assert all(v >= 0 for v in s["area_lost_mm2"].values())
-    # a joint whose limit is already 0 loses nothing
-    narrow = handarm.ArmDesign().with_limits_deg([1e-9 + 10, 150, 150, 150, 150, 150])
-    assert paper_3r_section_check(narrow, delta_deg=10.0)["area_lost_mm2"]["1"] == 0.0
+    # narrowing more never loses less (same samples, nested subsets)
+    more = paper_3r_section_check(handarm.ArmDesign(), delta_deg=20.0, samples=200_000)
+    for k in ("1", "2", "3"):
+        assert more["area_lost_mm2"][k] >= s["area_lost_mm2"][k]
+    # joint 1 at +-10 deg narrowed by 10 deg: a single line of directions is left
+    narrow = handarm.ArmDesign().with_limits_deg([10, 150, 150, 150, 150, 150])
+    n = paper_3r_section_check(narrow, delta_deg=10.0, samples=200_000)
+    assert n["area_lost_mm2"]["1"] > 0.8 * n["area_mm2"]
 
 
 def test_study_pareto_is_physical_and_not_size_normalised():
@@ -226,3 +231,15 @@ def test_optimize_resumes_extends_and_writes_the_front(opt_file, tmp_path, capsy
     opt_file.write_text(OPT.replace("max_mass_g = 150", "max_mass_g = 140"))
     code = main(["optimize", str(opt_file), "--out", str(out), "--quiet"])
     assert code == 2 and "--out" in capsys.readouterr().err
+
+
+def test_workspace_sensitivity_uses_the_map_settings_asked_for(tmp_path):
+    from handarm.workspace.report import write_workspace_outputs
+
+    write_workspace_outputs(handarm.ArmDesign(), tmp_path, voxel=0.06, directions=4)
+    report = json.loads((tmp_path / "workspace.json").read_text())
+    sens = report["sensitivity"]
+    assert (sens["voxel"], sens["directions"]) == (0.06, 4)
+    assert report["collision_model"] == "printed" and report["min_width_m"] > 0
+    for row in sens["joints"]:
+        assert row["dexterous_mu_star_L"] >= 0 and row["dexterous_mu_star_conf_L"] >= 0

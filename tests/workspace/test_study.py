@@ -65,7 +65,12 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
     # an interrupted run: one design finished
     first = run_study(study, tmp_path / "a", workers=1, stop_after=1)
     assert first["computed"] == 1 and len(first["rows"]) == 1
-    second = run_study(study, tmp_path / "a", workers=2)
+    ticks = []
+    second = run_study(
+        study, tmp_path / "a", workers=2, sensitivity_progress=lambda d, t: ticks.append((d, t))
+    )
+    # the sensitivity ran (on the study's cluster) with progress over its 28 maps
+    assert ticks[-1] == (28, 28) and len(ticks) == 28
     assert second["computed"] == 2 and second["reused"] == 1
     third = run_study(study, tmp_path / "a", workers=2)
     assert third["computed"] == 0 and third["reused"] == 3
