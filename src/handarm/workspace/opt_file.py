@@ -134,6 +134,7 @@ class OptFile:
             "objectives": [dataclasses.asdict(o) for o in self.objectives],
             "constraints": self.constraints,
             "task_poses": None if self.task_poses is None else self.task_poses.tolist(),
+            "grid_points": self.grid_points,
         }
         return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()[:16]
 
