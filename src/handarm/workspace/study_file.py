@@ -91,7 +91,8 @@ def apply_params(base: ArmDesign, params: dict, where: str) -> ArmDesign:
         except ValueError:
             k = -1
         if not lo <= k <= hi:
-            raise ValueError(f"{where}: {key!r}: number must be {lo}..{hi}")
+            what = "joint number" if prefix != "link_length_" else "link number"
+            raise ValueError(f"{where}: {key!r}: {what} must be {lo}..{hi}")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
             raise ValueError(f"{where}: {key}: expected a positive number, got {value!r}")
         if prefix == "limit_deg_":
