@@ -231,7 +231,27 @@ def _sampler(opt: OptFile, name: str, seed: int):
             space[v.name] = list(np.linspace(v.low, v.high, opt.grid_points))
         if v.integer:
             space[v.name] = sorted({int(round(x)) for x in space[v.name]})
-    return optuna.samplers.GridSampler(space, seed=seed)
+    return _AskTellGrid(space, seed=seed)
+
+
+def _grid_class():
+    import optuna
+
+    class AskTellGrid(optuna.samplers.GridSampler):
+        """The grid sampler without its ``study.stop()`` at the end of the grid.
+
+        That call only works inside ``study.optimize``; here the number of trials asked
+        already bounds the run (a grid revisits points once it is exhausted).
+        """
+
+        def after_trial(self, study, trial, state, values) -> None:
+            return None
+
+    return AskTellGrid
+
+
+def _AskTellGrid(space, seed):  # noqa: N802 - reads as the class it builds
+    return _grid_class()(space, seed=seed)
 
 
 def _distributions(opt: OptFile) -> dict:
