@@ -243,3 +243,20 @@ def test_workspace_sensitivity_uses_the_map_settings_asked_for(tmp_path):
     assert report["collision_model"] == "printed" and report["min_width_m"] > 0
     for row in sens["joints"]:
         assert row["dexterous_mu_star_L"] >= 0 and row["dexterous_mu_star_conf_L"] >= 0
+
+
+def test_grid_sampler_runs_past_the_end_of_its_grid_under_ask_and_tell(opt_file):
+    import optuna
+
+    from handarm.workspace.optimize import _distributions, _sampler
+
+    opt = load_opt(opt_file)
+    study = optuna.create_study(
+        directions=["maximize", "minimize"], sampler=_sampler(opt, "grid", 0)
+    )
+    seen = set()
+    for _ in range(6 * 5 + 2):  # the whole grid (6 limits x 5 widths), then two more
+        t = study.ask(_distributions(opt))
+        seen.add((t.params["limit_deg_5"], t.params["beam_width"]))
+        study.tell(t, [1.0, 1.0])
+    assert len(seen) == 30
