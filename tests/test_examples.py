@@ -31,3 +31,34 @@ def test_example_runs(script, tmp_path):
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip()
     assert "Traceback" not in done.stderr
+
+
+@pytest.mark.slow
+def test_optimize_example_runs_and_resumes(tmp_path):
+    """examples/optimize.toml: a short run, then extended by one trial."""
+    toml = EXAMPLES[0].parent / "optimize.toml"
+    for trials in ("2", "3"):
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "handarm.cli",
+                "optimize",
+                str(toml),
+                "--out",
+                str(tmp_path / "run"),
+                "--trials",
+                trials,
+                "--workers",
+                "1",
+                "--quiet",
+            ],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=900,
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert f"{trials} in the journal" in done.stdout
+    assert (tmp_path / "run" / "front.json").exists()

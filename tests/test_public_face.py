@@ -58,7 +58,7 @@ def test_result_values_compare_and_hash(design):
     assert isinstance(hash(r), int)
     b = handarm.ik.solve_batch(design, np.array([[0.2, 0.05, 0.05]]), np.array([[1, 0, 0.3]]))
     assert b == b and isinstance(hash(b), int)
-    m = handarm.workspace.reachability_map(design, 0.1, 8)
+    m = handarm.workspace.reachability_map(design, 0.1, 12)
     assert m == m and isinstance(hash(m), int)
     blank = handarm.carve.link_blank(design, 2)
     assert blank == blank and isinstance(hash(blank), int)

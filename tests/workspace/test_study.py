@@ -65,7 +65,12 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
     # an interrupted run: one design finished
     first = run_study(study, tmp_path / "a", workers=1, stop_after=1)
     assert first["computed"] == 1 and len(first["rows"]) == 1
-    second = run_study(study, tmp_path / "a", workers=2)
+    ticks = []
+    second = run_study(
+        study, tmp_path / "a", workers=2, sensitivity_progress=lambda d, t: ticks.append((d, t))
+    )
+    # the sensitivity ran (on the study's cluster) with progress over its 28 maps
+    assert ticks[-1] == (28, 28) and len(ticks) == 28
     assert second["computed"] == 2 and second["reused"] == 1
     third = run_study(study, tmp_path / "a", workers=2)
     assert third["computed"] == 0 and third["reused"] == 3
@@ -79,10 +84,20 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
     assert any(r["pareto"] == "True" for r in rows)
     sens = json.loads((tmp_path / "a" / "sensitivity.json").read_text())
     assert [r["joint"] for r in sens["joints"]] == [1, 2, 3, 4, 5, 6]
+    # the sensitivity used the study's map settings, not fixed ones
+    assert (sens["voxel"], sens["directions"]) == (0.05, 12)
+    assert sorted(sens["ranking_dexterous"]) == [1, 2, 3, 4, 5, 6]
+    assert "joint_2_dominates" in sens["paper_3r_section_check"]
     for name in ("pareto.png", "best_xy.png", "best_xz.png", "sensitivity.png"):
         assert (tmp_path / "a" / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["finished"] == 3
+    # new weights: nothing recomputed, every score recomputed from the stored measurements
+    study_file.write_text(STUDY + "\n[weights]\nmass = 5.0\n")
+    reweighted = run_study(load_study(study_file), tmp_path / "a", workers=1)
+    assert reweighted["computed"] == 0
+    for old, new in zip(third["rows"], reweighted["rows"], strict=True):
+        assert new["score"] == pytest.approx(old["score"] - 4.5 * old["mass_kg"] / 0.1)
     # wider limits: lighter carved links and at least as much workspace
     by = {r["name"]: r for r in third["rows"]}
     assert by["limit_deg_2=150"]["mass_kg"] <= by["limit_deg_2=120"]["mass_kg"]

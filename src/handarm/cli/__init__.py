@@ -25,7 +25,7 @@ import threading
 from contextlib import contextmanager
 
 from handarm import __version__
-from handarm.cli import bridge, build, ik, report, workspace
+from handarm.cli import bridge, build, ik, optimize, report, workspace
 from handarm.cli._common import Parser, UsageError, option_error
 
 __all__ = ["main", "make_parser", "UsageError", "EXIT_CODES"]
@@ -111,7 +111,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"handarm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for module in (build, ik, bridge, workspace, report):
+    for module in (build, ik, bridge, workspace, optimize, report):
         module.register(sub)
     return parser
 

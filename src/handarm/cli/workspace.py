@@ -50,9 +50,9 @@ def cmd_workspace(args: argparse.Namespace) -> int:
     print(f"{report['ik_queries']} IK queries at {report['ik_queries_per_second']:,.0f}/s")
     if "sensitivity" in report:
         print(
-            "most sensitive joints (reachable, dexterous): "
-            f"{report['sensitivity']['most_sensitive_reachable']}, "
-            f"{report['sensitivity']['most_sensitive_dexterous']}"
+            "joints by Morris mu* (reachable, dexterous): "
+            f"{report['sensitivity']['ranking_reachable']}, "
+            f"{report['sensitivity']['ranking_dexterous']}"
         )
     print(f"wrote {args.out}")
     return 0
@@ -66,14 +66,26 @@ def cmd_study(args: argparse.Namespace) -> int:
     from handarm.workspace.study_run import run_study
 
     study = load_study(args.study)
-    with tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar:
+    with (
+        tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar,
+        tqdm(desc="sensitivity", unit="map", disable=args.quiet, leave=False) as sens_bar,
+    ):
 
         def tick(done: int, total: int) -> None:
             bar.update(done - bar.n)
 
+        def sens_tick(done: int, total: int) -> None:
+            sens_bar.total = total
+            sens_bar.update(done - sens_bar.n)
+
         try:
             result = run_study(
-                study, args.out, scheduler=args.scheduler, workers=args.workers, progress=tick
+                study,
+                args.out,
+                scheduler=args.scheduler,
+                workers=args.workers,
+                progress=tick,
+                sensitivity_progress=sens_tick,
             )
         except ValueError as exc:
             raise option_error(exc, {"scheduler": "--scheduler", "workers": "--workers"}) from None

@@ -2,8 +2,9 @@
 
 ``reachability_map(design)`` maps what the arm reaches with how many approach directions;
 ``map_scores`` turns a map into volumes; ``load_study`` / ``run_study`` evaluate many
-designs on Dask. The modules (``maps``, ``scores``, ``plots``, ``report``, ``study_file``,
-``study_run``, ``study_results``) load on first use.
+designs on Dask; ``load_opt`` / ``run_optimization`` search a design space on Optuna
+(``handarm optimize``); ``global_sensitivity`` screens the joint limits. The modules load on
+first use.
 """
 
 from __future__ import annotations
@@ -11,7 +12,19 @@ from __future__ import annotations
 from handarm._lazy import lazy_attributes
 
 _MODULES = frozenset(
-    {"maps", "scores", "plots", "report", "study_file", "study_run", "study_results"}
+    {
+        "maps",
+        "scores",
+        "plots",
+        "report",
+        "study_file",
+        "study_run",
+        "study_results",
+        "opt_file",
+        "optimize",
+        "opt_plots",
+        "sensitivity",
+    }
 )
 _NAMES = {
     "ReachabilityMap": "maps",
@@ -23,6 +36,10 @@ _NAMES = {
     "Study": "study_file",
     "load_study": "study_file",
     "run_study": "study_run",
+    "load_opt": "opt_file",
+    "run_optimization": "optimize",
+    "global_sensitivity": "sensitivity",
+    "paper_3r_section_check": "sensitivity",
 }
 
 __all__ = sorted(_NAMES)

@@ -27,19 +27,60 @@ from handarm._io import write_bytes_atomic
 from handarm.design import ArmDesign
 from handarm.ik import count_solutions
 
-__all__ = ["ReachabilityMap", "direction_set", "reachability_map", "symmetries"]
+__all__ = [
+    "MIN_WIDTH",
+    "ReachabilityMap",
+    "direction_set",
+    "nearest_direction_counts",
+    "reachability_map",
+    "symmetries",
+]
+
+#: Narrowest solution range (m of the IK's line parameter u) that makes a target reachable.
+#: A printed arm cannot hold a range a few nanometres wide (a stretched tip pointing
+#: straight up or down): such ranges alias the maps (more directions, less volume). One
+#: micrometre is far below any printed tolerance and far above the numerical width of
+#: those degenerate ranges (about 4 nm).
+MIN_WIDTH = 1e-6
 
 
 def direction_set(n: int = 100) -> np.ndarray:
-    """About ``n`` unit directions, even over the sphere and symmetric under y -> -y, z -> -z.
+    """Exactly ``n`` unit directions, even over the sphere and symmetric under y -> -y, z -> -z.
 
     m bands of equal area (equal steps in x, by Archimedes' theorem), each with an even number
     k of directions equally spaced around x, every other band turned by half a step: an even
     k maps each band onto itself under both mirrors, and no direction has a near-twin across
     a mirror plane. n = 100 gives 10 bands of 10.
+
+    Only some counts can be made this way (4, 12, 16, 30, 36, 56, 64, 90, 100, ...); any
+    other count is refused, never silently rounded.
+
+    Raises
+    ------
+    ValueError
+        If ``n`` is not an integer >= 4 or not a count the construction makes; the message
+        names the nearest valid counts.
     """
-    if n < 4:
-        raise ValueError(f"directions: expected at least 4, got {n}")
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 4:
+        raise ValueError(f"directions: expected an integer >= 4, got {n!r}")
+    dirs = _direction_bands(int(n))
+    if len(dirs) != n:
+        below, above = nearest_direction_counts(int(n))
+        raise ValueError(
+            f"directions: {n} directions cannot be spread evenly and mirror-symmetrically; "
+            f"nearest valid counts: {below} and {above}"
+        )
+    return dirs
+
+
+def nearest_direction_counts(n: int) -> tuple[int, int]:
+    """The largest valid direction count <= ``n`` and the smallest >= ``n``."""
+    below = next(c for c in range(n, 3, -1) if len(_direction_bands(c)) == c)
+    above = next(c for c in range(max(n, 4), 4 * n + 8) if len(_direction_bands(c)) == c)
+    return below, above
+
+
+def _direction_bands(n: int) -> np.ndarray:
     m = max(2, round(math.sqrt(n)))
     k = max(2, 2 * round(n / (2 * m)))
     x = -1.0 + (2.0 * np.arange(m) + 1.0) / m
@@ -95,7 +136,9 @@ class ReachabilityMap:
     queries: int
     seconds: float
     handle: float = 0.0  # length of l0 (m), for pictures
-    collision_model: str = "printed"  # the design's ``collision_model`` the IK used
+    collision_model: str = "printed"  # the design's collision model the IK used
+    min_width: float = 0.0  # narrowest counted solution range (m of u)
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # grid shift (m) added to centres
 
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
         """Compressed .npz (written atomically)."""
@@ -112,6 +155,8 @@ class ReachabilityMap:
             mirrored=np.array(self.mirrored),
             handle=self.handle,
             collision_model=self.collision_model,
+            min_width=self.min_width,
+            offset=np.array(self.offset),
         )
         path = Path(path)
         write_bytes_atomic(path, buf.getvalue())
@@ -126,6 +171,9 @@ def reachability_map(
     use_symmetry: bool = True,
     progress: Callable[[int, int], None] | None = None,
     chunk_queries: int = 400_000,
+    min_width: float = MIN_WIDTH,
+    offset=(0.0, 0.0, 0.0),
+    rotation=None,
 ) -> ReachabilityMap:
     """Reachability map of the design.
 
@@ -143,12 +191,34 @@ def reachability_map(
         ``progress(done, total)`` in IK queries, after each chunk.
     chunk_queries : int
         IK queries per batch (bounds memory).
+    min_width : float
+        Solution ranges narrower than this (m of u) do not count (default ``MIN_WIDTH``).
+    offset : array-like, shape (3,)
+        Shift of the voxel grid (m), for jittered repeats; voxel (i, j, k) is then centred
+        at ``centres[[i, j, k]] + offset``. A shifted grid is not mirror-symmetric, so the
+        map is computed in full.
+    rotation : array-like, shape (3, 3), optional
+        Rotation applied to the direction set, for rotated repeats.
+
+    Raises
+    ------
+    ValueError
+        If ``voxel`` is not positive, the direction count is not a valid one (see
+        ``direction_set``), ``offset`` or ``rotation`` is malformed.
     """
     import time
 
-    if not voxel > 0:
-        raise ValueError(f"voxel: must be > 0, got {voxel}")
+    if isinstance(voxel, bool) or not isinstance(voxel, (int, float)) or not voxel > 0:
+        raise ValueError(f"voxel: expected a positive number of metres, got {voxel!r}")
+    off = np.asarray(offset, float)
+    if off.shape != (3,) or not np.isfinite(off).all():
+        raise ValueError(f"offset: expected 3 finite numbers (m), got {offset!r}")
     dirs = direction_set(directions) if np.isscalar(directions) else np.asarray(directions, float)
+    if rotation is not None:
+        rot = np.asarray(rotation, float)
+        if rot.shape != (3, 3) or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9):
+            raise ValueError("rotation: expected a 3x3 rotation matrix")
+        dirs = dirs @ rot.T
     dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     reach = float(np.sum(design.lengths[1:]))
     half = math.ceil(reach / voxel)
@@ -156,7 +226,9 @@ def reachability_map(
     sym_y, sym_z = symmetries(design) if use_symmetry else (False, False)
     sym_y = sym_y and _mirror_symmetric(dirs, 1)
     sym_z = sym_z and _mirror_symmetric(dirs, 2)
-    gx, gy, gz = np.meshgrid(centres, centres, centres, indexing="ij")
+    if off.any():
+        sym_y = sym_z = False
+    gx, gy, gz = np.meshgrid(centres + off[0], centres + off[1], centres + off[2], indexing="ij")
     inside = gx**2 + gy**2 + gz**2 <= (reach + voxel * math.sqrt(3) / 2) ** 2
     todo = inside.copy()
     if sym_y:
@@ -174,7 +246,9 @@ def reachability_map(
         block = pts[s : s + per_chunk]
         P = np.repeat(block, m, axis=0)
         E = np.tile(dirs, (len(block), 1))
-        counts[s : s + len(block)] = count_solutions(design, P, E).reshape(len(block), m)
+        counts[s : s + len(block)] = count_solutions(design, P, E, min_width=min_width).reshape(
+            len(block), m
+        )
         if progress is not None:
             progress(min(total, (s + len(block)) * m), total)
     seconds = time.perf_counter() - t0
@@ -202,6 +276,8 @@ def reachability_map(
         seconds,
         float(design.lengths[0]),
         design.collision_model,
+        float(min_width),
+        tuple(float(v) for v in off),
     )
 
 

@@ -48,38 +48,50 @@ def slice_picture(
     return save_png(fig, path)
 
 
-def pareto_picture(rows, path, x="mass_kg", y="workspace_score") -> Path:
-    """Every design as a point (workspace score against link mass), the Pareto front joined."""
+def pareto_picture(rows, path, x="mass_kg", y="dexterous_volume_m3") -> Path:
+    """Every design as a point (dexterous volume against link mass), the front marked.
+
+    The front is over four objectives (``study_results.PARETO_OBJECTIVES``), so front
+    points in this projection need not form a staircase.
+    """
     fig = new_figure((6.5, 4.5))
     ax = fig.add_subplot()
     xs = np.array([r[x] for r in rows]) * (1000.0 if x == "mass_kg" else 1.0)
-    ys = np.array([r[y] for r in rows])
+    ys = np.array([r[y] for r in rows]) * (1000.0 if y.endswith("_m3") else 1.0)
     front = np.array([r["pareto"] for r in rows], dtype=bool)
     ax.scatter(xs[~front], ys[~front], color="0.6", label="dominated")
     order = np.argsort(xs[front])
-    ax.plot(xs[front][order], ys[front][order], "o-", color="tab:red", label="Pareto front")
+    ax.plot(xs[front][order], ys[front][order], "o", color="tab:red", label="Pareto front")
     for r, px, py in zip(rows, xs, ys, strict=True):
         if r["pareto"]:
             ax.annotate(r["name"], (px, py), fontsize=7, xytext=(3, 3), textcoords="offset points")
     ax.set_xlabel("carved link mass (g)" if x == "mass_kg" else x)
-    ax.set_ylabel("workspace score (reachable + dexterous volume, normalised)")
+    ax.set_ylabel("dexterous volume (L)" if y == "dexterous_volume_m3" else y)
     ax.legend()
     ax.set_title("trade study: workspace against mass")
     return save_png(fig, path)
 
 
 def sensitivity_picture(sensitivity: dict, path) -> Path:
-    """Bar chart: volume lost per degree of each joint's limit."""
+    """Bar chart: Morris mu* of each joint's limit on both volumes, with 95 % intervals."""
     rows = sensitivity["joints"]
     joints = [r["joint"] for r in rows]
     fig = new_figure((6, 4))
     ax = fig.add_subplot()
     w = 0.38
     x = np.arange(len(joints))
-    ax.bar(x - w / 2, [r["reachable_m3_per_deg"] * 1e6 for r in rows], w, label="reachable")
-    ax.bar(x + w / 2, [r["dexterous_m3_per_deg"] * 1e6 for r in rows], w, label="dexterous")
+    for off, name in ((-w / 2, "reachable"), (w / 2, "dexterous")):
+        ax.bar(
+            x + off,
+            [r[f"{name}_mu_star_L"] for r in rows],
+            w,
+            yerr=[r[f"{name}_mu_star_conf_L"] for r in rows],
+            capsize=3,
+            label=name,
+        )
     ax.set_xticks(x, [f"joint {j}" for j in joints])
-    ax.set_ylabel("volume lost per degree of limit (cm³/deg)")
-    ax.set_title(f"per-joint sensitivity (limits reduced by {sensitivity['delta_deg']:g} deg)")
+    ax.set_ylabel("Morris mu* (L)")
+    lo, hi = sensitivity["range_deg"]
+    ax.set_title(f"global sensitivity, limits in {lo:g}..{hi:g} deg")
     ax.legend()
     return save_png(fig, path)

@@ -17,7 +17,8 @@ from handarm._io import write_text_atomic
 from handarm.design import ArmDesign
 from handarm.workspace.maps import reachability_map
 from handarm.workspace.plots import sensitivity_picture, slice_picture
-from handarm.workspace.scores import joint_sensitivity, map_scores, min_reach_check
+from handarm.workspace.scores import map_scores, min_reach_check
+from handarm.workspace.sensitivity import global_sensitivity
 
 __all__ = ["write_workspace_outputs"]
 
@@ -41,6 +42,8 @@ def write_workspace_outputs(
         "collision_model": wmap.collision_model,
         "voxel_m": voxel,
         "directions": len(wmap.directions),
+        "collision_model": wmap.collision_model,
+        "min_width_m": wmap.min_width,
         "mirrored_y_z": list(wmap.mirrored),
         "ik_queries": wmap.queries,
         "ik_queries_per_second": wmap.queries / max(wmap.seconds, 1e-9),
@@ -48,7 +51,10 @@ def write_workspace_outputs(
         "min_reach_check": min_reach_check(design),
     }
     if sensitivity:
-        report["sensitivity"] = joint_sensitivity(design, threshold=threshold)
+        # at the map settings asked for (not fixed ones)
+        report["sensitivity"] = global_sensitivity(
+            design, voxel=voxel, directions=directions, threshold=threshold
+        )
         written.append(
             sensitivity_picture(report["sensitivity"], out / "pictures" / "sensitivity.png")
         )

@@ -4,10 +4,11 @@ Scores of a map: reachable volume (voxels reached with at least one direction), 
 volume (reachability index at least ``threshold``), mean index over the reachable voxels.
 One scalar design score combines them with the carved links' mass and strength::
 
-    score = w_reachable V_r / V_ref + w_dexterous V_d / V_ref + w_mean_index I
+    score = w_reachable V_r / 1 L + w_dexterous V_d / 1 L + w_mean_index I
             - w_mass m / 0.1 kg + w_strength A_min / 50 mm^2
 
-with V_ref the volume of the reach sphere (4/3 pi (a1 + ... + a6)^3).
+Every reference is a fixed physical unit: no term is divided by the design's own size
+(dividing by the reach sphere rewarded small arms).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ DEFAULT_WEIGHTS = {
 }
 _MASS_REF = 0.1  # kg
 _AREA_REF = 50e-6  # m^2
+_VOLUME_REF = 1e-3  # m^3 (one litre)
 
 
 def map_scores(wmap: ReachabilityMap, threshold: float = 0.5) -> dict:
@@ -62,7 +64,7 @@ def design_score(scores: dict, mass: float, min_cross_section: float, weights=No
         if key not in w:
             raise ValueError(f"weights: unknown weight {key!r}; known: {sorted(w)}")
         w[key] = float(value)
-    v_ref = scores["reference_volume_m3"]
+    v_ref = _VOLUME_REF
     return (
         w["reachable"] * scores["reachable_volume_m3"] / v_ref
         + w["dexterous"] * scores["dexterous_volume_m3"] / v_ref
@@ -109,7 +111,7 @@ def joint_sensitivity(
     design: ArmDesign,
     delta_deg: float = 10.0,
     voxel: float = 0.02,
-    directions: int = 48,
+    directions: int = 56,
     threshold: float = 0.5,
 ) -> dict:
     """How much each joint's limit matters: volumes lost per degree of limit taken away.

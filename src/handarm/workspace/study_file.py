@@ -5,7 +5,7 @@ A study file (TOML)::
     name = "joints-2-and-5"
     design = "arm.toml"          # optional, relative to the study file; default: the paper's arm
     voxel = 0.02                 # map settings for every design (m, count, index threshold)
-    directions = 48
+    directions = 56
     threshold = 0.5
 
     [grid]                       # every combination of these
@@ -41,9 +41,10 @@ from pathlib import Path
 
 from handarm._io import read_regular_bytes
 from handarm.design import ArmDesign
+from handarm.workspace.maps import MIN_WIDTH, direction_set
 from handarm.workspace.scores import DEFAULT_WEIGHTS
 
-__all__ = ["Study", "load_study", "design_key"]
+__all__ = ["Study", "apply_params", "load_study", "design_key", "study_settings"]
 
 _SETTINGS = ("voxel", "directions", "threshold")
 _STUDY_KEYS = {"name", "design", "grid", "designs", "weights", *_SETTINGS}
@@ -57,32 +58,58 @@ class Study:
     base: ArmDesign
     designs: tuple[tuple[str, dict, ArmDesign], ...]  # (name, parameters, design)
     voxel: float = 0.02
-    directions: int = 48
+    directions: int = 56
     threshold: float = 0.5
     weights: dict = dataclasses.field(default_factory=dict)
 
 
-def _apply(base: ArmDesign, params: dict, where: str) -> ArmDesign:
+def apply_params(base: ArmDesign, params: dict, where: str) -> ArmDesign:
+    """The base design with named parameters applied.
+
+    ``limit_deg_K`` sets a symmetric limit of joint K (degrees), ``link_length_K`` sets a_K
+    (m, K = 0..6), ``pulley_radius_K`` the joint pulley K (m); any other name is an
+    ``ArmDesign`` field.
+
+    Raises
+    ------
+    ValueError
+        If a name or value is wrong or the design is invalid; the message starts with
+        ``where``.
+    """
     limits = list(base.joint_limits)
+    lengths = list(base.link_lengths)
+    radii = list(base.joint_pulley_radii)
     fields = {}
+    indexed = {"limit_deg_": (1, 6), "link_length_": (0, 6), "pulley_radius_": (1, 6)}
     for key, value in params.items():
-        if key.startswith("limit_deg_"):
-            try:
-                k = int(key.removeprefix("limit_deg_"))
-            except ValueError:
-                k = 0
-            if not 1 <= k <= 6:
-                raise ValueError(f"{where}: {key!r}: joint number must be 1..6")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
-                raise ValueError(
-                    f"{where}: {key}: expected a positive number of degrees, got {value!r}"
-                )
-            limits[k - 1] = (-math.radians(value), math.radians(value))
-        else:
+        prefix = next((p for p in indexed if key.startswith(p)), None)
+        if prefix is None:
             fields[key] = value
+            continue
+        lo, hi = indexed[prefix]
+        try:
+            k = int(key.removeprefix(prefix))
+        except ValueError:
+            k = -1
+        if not lo <= k <= hi:
+            what = "joint number" if prefix != "link_length_" else "link number"
+            raise ValueError(f"{where}: {key!r}: {what} must be {lo}..{hi}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise ValueError(f"{where}: {key}: expected a positive number, got {value!r}")
+        if prefix == "limit_deg_":
+            limits[k - 1] = (-math.radians(value), math.radians(value))
+        elif prefix == "link_length_":
+            lengths[k] = float(value)
+        else:
+            radii[k - 1] = float(value)
     try:
-        return base.replace(joint_limits=tuple(limits), **fields)
-    except ValueError as exc:
+        return base.replace(
+            joint_limits=tuple(limits),
+            link_lengths=tuple(lengths),
+            joint_pulley_radii=tuple(radii),
+            **fields,
+        )
+    except (ValueError, TypeError) as exc:
         raise ValueError(f"{where}: {exc}") from None
 
 
@@ -133,7 +160,7 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         for combo in itertools.product(*(grid[k] for k in keys)):
             params = dict(zip(keys, combo, strict=True))
             name = ",".join(f"{k}={v}" for k, v in params.items())
-            designs.append((name, params, _apply(base, params, f"{path}: grid {name}")))
+            designs.append((name, params, apply_params(base, params, f"{path}: grid {name}")))
     entries = data.get("designs", [])
     if not isinstance(entries, list):
         raise ValueError(f"{path}: designs: expected an array of tables ([[designs]])")
@@ -144,7 +171,7 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         name = entry.get("name", f"design{n}")
         if not isinstance(name, str) or not name:
             raise ValueError(f"{path}: designs[{n}].name: expected a non-empty string")
-        designs.append((name, params, _apply(base, params, f"{path}: designs[{n}] ({name})")))
+        designs.append((name, params, apply_params(base, params, f"{path}: designs[{n}] ({name})")))
     if not designs:
         designs.append(("base", {}, base))
     names = [d[0] for d in designs]
@@ -169,6 +196,10 @@ def _settings(path: Path, data: dict) -> dict:
         v = data["directions"]
         if isinstance(v, bool) or not isinstance(v, int) or v < 4:
             raise ValueError(f"{path}: directions: expected an integer >= 4, got {v!r}")
+        try:
+            direction_set(v)  # honoured exactly or refused with the nearest valid counts
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
         out["directions"] = v
     if "threshold" in data:
         v = data["threshold"]
@@ -199,3 +230,13 @@ def design_key(design: ArmDesign, settings: dict) -> str:
     """A short hash of a design and the map settings: the name of its result files."""
     blob = json.dumps({"design": design.to_dict(), "settings": settings}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def study_settings(study: Study) -> dict:
+    """The map settings a study's results are computed with and keyed by."""
+    return {
+        "voxel": study.voxel,
+        "directions": study.directions,
+        "threshold": study.threshold,
+        "min_width": MIN_WIDTH,
+    }

@@ -13,38 +13,46 @@ import numpy as np
 from handarm._io import write_text_atomic
 from handarm.workspace.maps import ReachabilityMap
 from handarm.workspace.plots import pareto_picture, slice_picture
-from handarm.workspace.study_file import Study, design_key
+from handarm.workspace.scores import design_score
+from handarm.workspace.study_file import Study, design_key, study_settings
 
 __all__ = ["pareto_front", "study_table"]
 
 
-def pareto_front(rows) -> list[bool]:
-    """Which rows are not dominated in (workspace score up, mass down).
+#: (row key, direction) of the study's Pareto front: physical units, none normalised
+PARETO_OBJECTIVES = (
+    ("reachable_volume_m3", 1),
+    ("dexterous_volume_m3", 1),
+    ("mass_kg", -1),
+    ("min_cross_section_m2", 1),
+)
 
-    A row is dominated when another has at least its workspace score and at most its mass,
-    one of them strictly.
+
+def pareto_front(rows) -> list[bool]:
+    """Which rows are not dominated in ``PARETO_OBJECTIVES``.
+
+    Volumes and the minimum cross-section up, mass down; a row is dominated when another
+    is at least as good in every objective and better in one.
     """
-    out = []
-    for r in rows:
-        dominated = any(
-            o["workspace_score"] >= r["workspace_score"]
-            and o["mass_kg"] <= r["mass_kg"]
-            and (o["workspace_score"] > r["workspace_score"] or o["mass_kg"] < r["mass_kg"])
-            for o in rows
-        )
-        out.append(not dominated)
-    return out
+    pts = np.array([[s * r[k] for k, s in PARETO_OBJECTIVES] for r in rows]).reshape(
+        len(rows), len(PARETO_OBJECTIVES)
+    )
+    return [not any(np.all(o >= p) and np.any(o > p) for o in pts) for p in pts]
 
 
 def study_table(study: Study, out: str | os.PathLike[str]) -> list[dict]:
     """Rows of the finished designs (in study order); writes results.csv and the pictures."""
     out = Path(out)
-    settings = {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold}
+    settings = study_settings(study)
     rows, maps = [], {}
     for name, _params, design in study.designs:
         path = out / "designs" / f"{design_key(design, settings)}.json"
         if path.exists():
             row = json.loads(path.read_text())
+            # the score is recomputed from the measurements with today's weights
+            row["score"] = design_score(
+                row, row["mass_kg"], row["min_cross_section_m2"], study.weights
+            )
             rows.append(row)
             maps[name] = path.with_suffix(".npz")
     if not rows:
@@ -58,7 +66,6 @@ def study_table(study: Study, out: str | os.PathLike[str]) -> list[dict]:
         "reachable_volume_m3",
         "dexterous_volume_m3",
         "mean_index",
-        "workspace_score",
         "mass_kg",
         "min_cross_section_m2",
         "score",

@@ -24,10 +24,12 @@ from handarm._resources import check_resources
 from handarm.carve import carve
 from handarm.carve.properties import link_properties
 from handarm.design import ArmDesign
+from handarm.workspace._dask import close_client, open_client
 from handarm.workspace.maps import reachability_map
 from handarm.workspace.plots import sensitivity_picture
-from handarm.workspace.scores import design_score, joint_sensitivity, map_scores
-from handarm.workspace.study_file import Study, design_key
+from handarm.workspace.scores import map_scores
+from handarm.workspace.sensitivity import global_sensitivity
+from handarm.workspace.study_file import Study, design_key, study_settings
 from handarm.workspace.study_results import study_table
 
 __all__ = ["evaluate_design", "run_study", "study_sensitivity"]
@@ -38,10 +40,13 @@ def evaluate_design(
     params: dict,
     design_dict: dict,
     settings: dict,
-    weights: dict,
     threads: int | None = None,
 ) -> dict:
-    """Carve one design and map it with the limits the carved links allow (a Dask task)."""
+    """Carve one design and map it with the limits the carved links allow (a Dask task).
+
+    Only measurements are returned (and stored): the score is computed from them with the
+    study's current weights whenever the table is made, so it is never stale.
+    """
     if threads is not None:
         import numba
 
@@ -58,10 +63,12 @@ def evaluate_design(
         for (lo, hi), j in zip(design.joint_limits, carved.joints, strict=True)
     )
     wmap = reachability_map(
-        design.replace(joint_limits=achieved), settings["voxel"], settings["directions"]
+        design.replace(joint_limits=achieved),
+        settings["voxel"],
+        settings["directions"],
+        min_width=settings["min_width"],
     )
     scores = map_scores(wmap, settings["threshold"])
-    v_ref = scores["reference_volume_m3"]
     buf = io.BytesIO()
     np.savez_compressed(
         buf,
@@ -77,11 +84,10 @@ def evaluate_design(
         "design": design_dict,
         "settings": settings,
         **scores,
-        "workspace_score": (scores["reachable_volume_m3"] + scores["dexterous_volume_m3"]) / v_ref,
+        "collision_model": wmap.collision_model,
         "mass_kg": mass,
         "min_cross_section_m2": strength,
         "achieved_limits_deg": [[math.degrees(v) for v in j.achieved] for j in carved.joints],
-        "score": design_score(scores, mass, strength, weights),
         "map_npz": buf.getvalue(),
     }
 
@@ -94,6 +100,7 @@ def run_study(
     workers: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     stop_after: int | None = None,
+    sensitivity_progress: Callable[[int, int], None] | None = None,
 ) -> dict:
     """Evaluate every design not already on disk, then the table, pictures and report.html.
 
@@ -111,6 +118,9 @@ def run_study(
         ``progress(done, total)`` as designs finish.
     stop_after : int, optional
         Stop after this many new designs (what an interruption looks like; for tests).
+    sensitivity_progress : callable, optional
+        ``progress(done, total)`` over the maps of the global sensitivity of the base design
+        (``workspace.sensitivity``), which runs on the same cluster.
 
     Returns
     -------
@@ -123,7 +133,7 @@ def run_study(
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
     check_resources(study.base, voxel=study.voxel, directions=study.directions)
     out = check_out_dir(out)
-    settings = {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold}
+    settings = study_settings(study)
     pending, reused = [], 0
     for name, params, design in study.designs:
         key = design_key(design, settings)
@@ -137,99 +147,80 @@ def run_study(
     done = reused
     if progress:
         progress(done, total)
-    if pending:
-        done = _compute(
-            pending, settings, study.weights, out, scheduler, workers, progress, done, total
+    sens_path, sens_key = out / "sensitivity.json", design_key(study.base, settings)
+    sens = json.loads(sens_path.read_text()) if sens_path.exists() else {}
+    need_sens = sens.get("key") != sens_key and stop_after is None
+    if pending or need_sens:
+        client, cluster, threads, _slots = open_client(
+            scheduler, workers, min(2, max(1, len(pending)))
         )
+        try:
+            if pending:
+                _compute(client, threads, pending, settings, out, progress, done, total)
+            if need_sens:
+                sens = study_sensitivity(study, out, client, sensitivity_progress)
+        finally:
+            close_client(client, cluster)
     rows = study_table(study, out)
-    study_sensitivity(study, out)
     if rows:
         from handarm.report import write_report  # plotly: loaded only for the report
 
         write_report(out)
-    return {"computed": len(pending), "reused": reused, "rows": rows}
+    return {"computed": len(pending), "reused": reused, "rows": rows, "sensitivity": sens}
 
 
-def study_sensitivity(study: Study, out: str | os.PathLike[str]) -> dict:
-    """Per-joint sensitivity of the study's base design, at the study's map settings.
+def study_sensitivity(
+    study: Study,
+    out: str | os.PathLike[str],
+    client=None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict:
+    """Global sensitivity of the study's base design, at the study's map settings.
 
-    Kept in ``out/sensitivity.json`` (with ``pictures/sensitivity.png``) and reused when the
-    base design and settings are unchanged.
+    Kept in ``out/sensitivity.json`` (with ``pictures/sensitivity.png``); runs the maps on
+    ``client`` when given.
     """
     out = Path(out)
-    path = out / "sensitivity.json"
-    key = design_key(
+    settings = study_settings(study)
+    data = global_sensitivity(
         study.base,
-        {"voxel": study.voxel, "directions": study.directions, "threshold": study.threshold},
+        voxel=study.voxel,
+        directions=study.directions,
+        threshold=study.threshold,
+        min_width=settings["min_width"],
+        client=client,
+        progress=progress,
     )
-    if path.exists():
-        data = json.loads(path.read_text())
-        if data.get("key") == key:
-            return data
-    data = joint_sensitivity(
-        study.base, voxel=study.voxel, directions=study.directions, threshold=study.threshold
-    )
-    data["key"] = key
+    data["key"] = design_key(study.base, settings)
     data["design"] = study.base.name
-    write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+    write_text_atomic(out / "sensitivity.json", json.dumps(data, indent=2) + "\n")
     sensitivity_picture(data, out / "pictures" / "sensitivity.png")
     return data
 
 
-def _compute(pending, settings, weights, out, scheduler, workers, progress, done, total) -> int:
-    # dask.distributed takes about a second to import: only when a study runs
-    from dask.distributed import Client, LocalCluster, as_completed
+def _compute(client, threads, pending, settings, out, progress, done, total) -> int:
+    from dask.distributed import as_completed
 
-    cluster = None
-    if scheduler is None:
-        n = workers or min(2, len(pending))
-        # worker processes inherit an ignored SIGINT: Ctrl-C reaches only this process,
-        # which closes the cluster, instead of every worker printing a traceback
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        try:
-            cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=50,
-            )
-        finally:
-            signal.signal(signal.SIGINT, previous)
-        client = Client(cluster)
-        threads = max(1, (os.cpu_count() or 2) // n)
-    else:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise RuntimeError(f"scheduler: cannot reach {scheduler}: {exc}") from None
-        threads = None
-    try:
-        futures = [
-            client.submit(
-                evaluate_design,
-                name,
-                params,
-                design.to_dict(),
-                settings,
-                weights,
-                threads,
-                key=f"handarm-{key}",
-                pure=False,
-            )
-            for key, name, params, design in pending
-        ]
-        keys = {f.key: key for f, (key, *_rest) in zip(futures, pending, strict=True)}
-        for fut in as_completed(futures):
-            row = fut.result()
-            key = keys[fut.key]
-            write_bytes_atomic(out / "designs" / f"{key}.npz", row.pop("map_npz"))
-            write_text_atomic(out / "designs" / f"{key}.json", json.dumps(row, indent=2) + "\n")
-            done += 1
-            if progress:
-                progress(done, total)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    futures = [
+        client.submit(
+            evaluate_design,
+            name,
+            params,
+            design.to_dict(),
+            settings,
+            threads,
+            key=f"handarm-{key}",
+            pure=False,
+        )
+        for key, name, params, design in pending
+    ]
+    keys = {f.key: key for f, (key, *_rest) in zip(futures, pending, strict=True)}
+    for fut in as_completed(futures):
+        row = fut.result()
+        key = keys[fut.key]
+        write_bytes_atomic(out / "designs" / f"{key}.npz", row.pop("map_npz"))
+        write_text_atomic(out / "designs" / f"{key}.json", json.dumps(row, indent=2) + "\n")
+        done += 1
+        if progress:
+            progress(done, total)
     return done

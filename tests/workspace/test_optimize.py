@@ -1,0 +1,262 @@
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import handarm
+from handarm.cli import main
+from handarm.workspace.maps import direction_set, nearest_direction_counts, reachability_map
+from handarm.workspace.opt_file import load_opt
+from handarm.workspace.optimize import feasibility, hypervolume, run_optimization
+from handarm.workspace.sensitivity import paper_3r_section_check
+from handarm.workspace.study_file import load_study
+from handarm.workspace.study_results import pareto_front
+
+OPT = """
+name = "tiny"
+trials = 3
+[map]
+voxel = 0.06
+directions = 4
+[variables]
+limit_deg_5 = {low = 110, high = 160, step = 10}
+beam_width = {low = 0.011, high = 0.013}
+[objectives]
+reachable_volume = "maximize"
+mass = {direction = "minimize", reference = 200}
+[constraints]
+max_mass_g = 150
+"""
+
+
+@pytest.fixture
+def opt_file(tmp_path):
+    path = tmp_path / "opt.toml"
+    path.write_text(OPT)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[objectives]\nbeauty = 'maximize'", "objectives.beauty: unknown objective"),
+        ("[objectives]\nmass = 'smaller'", "objectives.mass: expected"),
+        ("[map]\ndirections = 48", "map.directions: 48 .* nearest valid counts: 36 and 56"),
+        ('[map]\nvoxel = "0.02"', "map.voxel: expected a number"),
+        ("[variables]\nlimit_deg_9 = {low = 1, high = 2}", "number must be 1..6"),
+        ("[variables]\nclearance = {low = -1.0, high = 0.001}", "clearance: must be > 0"),
+        ("[variables]\nbeam_width = {low = 2, high = 1}", "expected low < high"),
+        ("[constraints]\nmax_speed = 1", "constraints.max_speed: unknown constraint"),
+        ("[constraints]\ntask_poses = 'none.csv'", "task_poses: file not found"),
+        ("sampler = 'random'", "sampler: expected one of"),
+    ],
+)
+def test_bad_optimization_files_name_the_field(tmp_path, text, message):
+    base = {
+        "variables": "[variables]\nlimit_deg_2 = {low = 100, high = 150}",
+        "objectives": "[objectives]\nmass = 'minimize'",
+    }
+    for table in list(base):
+        if f"[{table}]" in text:
+            del base[table]
+    path = tmp_path / "o.toml"
+    path.write_text(text + "\n" + "\n".join(base.values()))
+    with pytest.raises((ValueError, FileNotFoundError), match=message):
+        load_opt(path)
+
+
+def test_task_poses_csv(tmp_path, opt_file):
+    (tmp_path / "poses.csv").write_text("x,y,z,ex,ey,ez\n0.1,0,0,1,0,0\n0.05,0.05,0,0,1,0\n")
+    opt_file.write_text(OPT + 'task_poses = "poses.csv"\n')
+    opt = load_opt(opt_file)
+    assert opt.task_poses.shape == (2, 6)
+    values, violated = feasibility(
+        opt,
+        {"printable": True, "motor_travel_ok": True, "mass_g": 160.0, "task_reached": 0.5},
+    )
+    assert violated == ["max_mass_g", "task_poses"]
+    assert values["max_mass_g"] == pytest.approx(10.0) and values["task_poses"] == 0.5
+
+
+def test_hypervolume_against_a_grid_count(opt_file):
+    """2-D hypervolume checked by counting cells of a fine grid (independent of optuna)."""
+    opt = load_opt(opt_file)  # reachable volume up (ref 0 L), mass down (ref 200 g)
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(0, 60, 12), rng.uniform(50, 250, 12)])
+    vx = np.linspace(0, 60, 601)[:-1] + 0.05
+    my = np.linspace(0, 200, 2001)[:-1] + 0.05
+    X, Y = np.meshgrid(vx, my, indexing="ij")
+    covered = np.zeros(X.shape, bool)
+    for v, m in pts:
+        covered |= (X <= v) & (Y >= m)
+    expected = covered.sum() * 0.1 * 0.1
+    assert hypervolume(opt, pts) == pytest.approx(expected, rel=0.01)
+    assert hypervolume(opt, [[-1.0, 100.0]]) == 0.0  # worse than the reference adds nothing
+
+
+def test_direction_count_is_honoured_or_refused():
+    for n in (4, 12, 16, 36, 56, 100):
+        assert len(direction_set(n)) == n
+    with pytest.raises(ValueError, match="nearest valid counts: 36 and 56"):
+        direction_set(48)
+    below, above = nearest_direction_counts(48)
+    assert (below, above) == (36, 56)
+    # brute force: no count strictly between them is valid
+    for n in range(below + 1, above):
+        with pytest.raises(ValueError):
+            direction_set(n)
+    with pytest.raises(ValueError, match="directions"):
+        reachability_map(handarm.ArmDesign(), 0.05, 48)
+
+
+def test_map_records_its_settings_and_narrow_ranges_do_not_count(tmp_path):
+    d = handarm.ArmDesign()
+    m = reachability_map(d, 0.05, 16)
+    assert m.collision_model == d.collision_model and m.min_width > 0
+    with np.load(m.save_npz(tmp_path / "m.npz")) as z:
+        assert str(z["collision_model"]) == d.collision_model
+        assert float(z["min_width"]) == m.min_width
+    # mirrored and full maps agree in the mean solution count too (no one-sided ranges)
+    full = reachability_map(d, 0.05, 16, use_symmetry=False)
+    np.testing.assert_array_equal(m.mean_solutions, full.mean_solutions)
+    # counting every range (min_width 0) can only add reachable voxels
+    zero = reachability_map(d, 0.05, 16, min_width=0.0)
+    assert np.all(zero.reachable >= m.reachable)
+
+
+def test_jittered_and_rotated_maps_are_full_and_close():
+    d = handarm.ArmDesign()
+    base = reachability_map(d, 0.05, 16)
+    rot = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]) @ np.array(
+        [[np.cos(0.3), -np.sin(0.3), 0], [np.sin(0.3), np.cos(0.3), 0], [0, 0, 1]]
+    )
+    m = reachability_map(d, 0.05, 16, offset=(0.01, -0.02, 0.005), rotation=rot)
+    assert m.mirrored == (False, False) and m.offset == (0.01, -0.02, 0.005)
+    v0, v1 = base.reachable.sum(), m.reachable.sum()
+    assert abs(v1 - v0) <= 0.15 * v0
+
+
+def test_paper_3r_section_check_is_a_subset_count():
+    s = paper_3r_section_check(handarm.ArmDesign(), samples=200_000)
+    assert s["area_mm2"] > 0
+    assert all(v >= 0 for v in s["area_lost_mm2"].values())
+    # narrowing more never loses less (same samples, nested subsets)
+    more = paper_3r_section_check(handarm.ArmDesign(), delta_deg=20.0, samples=200_000)
+    for k in ("1", "2", "3"):
+        assert more["area_lost_mm2"][k] >= s["area_lost_mm2"][k]
+    # joint 1 at +-10 deg narrowed by 10 deg: a single line of directions is left
+    narrow = handarm.ArmDesign().with_limits_deg([10, 150, 150, 150, 150, 150])
+    n = paper_3r_section_check(narrow, delta_deg=10.0, samples=200_000)
+    assert n["area_lost_mm2"]["1"] > 0.8 * n["area_mm2"]
+
+
+def test_study_pareto_is_physical_and_not_size_normalised():
+    # a bigger arm with more volume and the same mass is never dominated by a smaller one
+    small = {"reachable_volume_m3": 0.03, "dexterous_volume_m3": 0.01, "mass_kg": 0.07}
+    big = {"reachable_volume_m3": 0.05, "dexterous_volume_m3": 0.02, "mass_kg": 0.07}
+    for r in (small, big):
+        r["min_cross_section_m2"] = 50e-6
+    assert pareto_front([small, big]) == [False, True]
+    # strength counts: a lighter design with a weaker link does not dominate
+    weak = dict(big, mass_kg=0.06, min_cross_section_m2=40e-6)
+    assert pareto_front([big, weak]) == [True, True]
+    # brute-force check on random rows
+    rng = np.random.default_rng(0)
+    rows = [
+        dict(
+            zip(
+                ["reachable_volume_m3", "dexterous_volume_m3", "mass_kg", "min_cross_section_m2"],
+                rng.integers(0, 3, 4).tolist(),
+                strict=True,
+            )
+        )
+        for _ in range(30)
+    ]
+    front = pareto_front(rows)
+    keys = ("reachable_volume_m3", "dexterous_volume_m3", "mass_kg", "min_cross_section_m2")
+    sense = (1, 1, -1, 1)
+
+    def dominates(b, a):
+        ge = all(s * b[k] >= s * a[k] for k, s in zip(keys, sense, strict=True))
+        return ge and any(b[k] != a[k] for k in keys)
+
+    for i, a in enumerate(rows):
+        assert front[i] == (not any(dominates(b, a) for b in rows))
+
+
+def test_study_refuses_a_direction_count_it_cannot_make(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_text("directions = 48\n")
+    with pytest.raises(ValueError, match="nearest valid counts: 36 and 56"):
+        load_study(path)
+
+
+@pytest.mark.slow
+def test_optimize_resumes_extends_and_writes_the_front(opt_file, tmp_path, capsys):
+    opt = load_opt(opt_file)
+    out = tmp_path / "run"
+    first = run_optimization(opt, out, workers=1, stop_after=1)  # an interrupted run
+    assert first["new"] == 1 and first["finished"] == 1
+    second = run_optimization(opt, out, workers=1)  # resumes to the file's 3 trials
+    assert second["new"] == 2 and second["finished"] == 3
+    code = main(["optimize", str(opt_file), "--out", str(out), "--trials", "4", "--quiet"])
+    assert code == 0 and "1 trials run now, 4 in the journal" in capsys.readouterr().out
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    assert [int(r["trial"]) for r in rows] == [0, 1, 2, 3]
+    front = json.loads((out / "front.json").read_text())
+    assert front["trials"] == 4 and front["map"]["directions"] == 4
+    assert {o["unit"] for o in front["objectives"]} == {"L", "g"}
+    on_front = {int(r["trial"]) for r in rows if r["pareto"] == "True"}
+    assert on_front == {d["trial"] for d in front["designs"]}
+    for d in front["designs"]:
+        design = handarm.ArmDesign.from_toml(out / d["toml"])
+        assert design.beam_width == pytest.approx(d["params"]["beam_width"])
+        assert d["measurements"]["mass_g"] <= 150  # feasible only
+    # the front is exactly the non-dominated feasible rows (brute force)
+    feas = [r for r in rows if r["feasible"] == "True"]
+    for r in feas:
+        dominated = any(
+            float(o["reachable_volume_L"]) >= float(r["reachable_volume_L"])
+            and float(o["mass_g"]) <= float(r["mass_g"])
+            and (float(o["reachable_volume_L"]), float(o["mass_g"]))
+            != (float(r["reachable_volume_L"]), float(r["mass_g"]))
+            for o in feas
+        )
+        assert (r["pareto"] == "True") == (not dominated)
+    for name in ("pareto.png", "hypervolume.png", "parallel.png", "importance.png"):
+        assert (out / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
+    assert "plotly" in (out / "pictures" / "optimize.html").read_text()[:200_000].lower()
+    # another optimization into the same folder is refused, naming the option
+    opt_file.write_text(OPT.replace("max_mass_g = 150", "max_mass_g = 140"))
+    code = main(["optimize", str(opt_file), "--out", str(out), "--quiet"])
+    assert code == 2 and "--out" in capsys.readouterr().err
+
+
+def test_workspace_sensitivity_uses_the_map_settings_asked_for(tmp_path):
+    from handarm.workspace.report import write_workspace_outputs
+
+    write_workspace_outputs(handarm.ArmDesign(), tmp_path, voxel=0.06, directions=4)
+    report = json.loads((tmp_path / "workspace.json").read_text())
+    sens = report["sensitivity"]
+    assert (sens["voxel"], sens["directions"]) == (0.06, 4)
+    assert report["collision_model"] == "printed" and report["min_width_m"] > 0
+    for row in sens["joints"]:
+        assert row["dexterous_mu_star_L"] >= 0 and row["dexterous_mu_star_conf_L"] >= 0
+
+
+def test_grid_sampler_runs_past_the_end_of_its_grid_under_ask_and_tell(opt_file):
+    import optuna
+
+    from handarm.workspace.optimize import _distributions, _sampler
+
+    opt = load_opt(opt_file)
+    study = optuna.create_study(
+        directions=["maximize", "minimize"], sampler=_sampler(opt, "grid", 0)
+    )
+    seen = set()
+    for _ in range(6 * 5 + 2):  # the whole grid (6 limits x 5 widths), then two more
+        t = study.ask(_distributions(opt))
+        seen.add((t.params["limit_deg_5"], t.params["beam_width"]))
+        study.tell(t, [1.0, 1.0])
+    assert len(seen) == 30
