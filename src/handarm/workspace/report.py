@@ -31,9 +31,16 @@ def write_workspace_outputs(
     directions: int = 100,
     threshold: float = 0.5,
     sensitivity: bool = True,
+    sensitivity_voxel: float | None = None,
+    sensitivity_directions: int | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
-    """Map, scores and pictures of ``design`` into ``out``; returns the paths written."""
+    """Map, scores and pictures of ``design`` into ``out``; returns the paths written.
+
+    The sensitivity screen maps the design 28 more times: by default at no finer than 20 mm
+    and 36 directions (``sensitivity_voxel``, ``sensitivity_directions`` override), the
+    settings it used recorded beside it in ``workspace.json``.
+    """
     out = Path(out)
     wmap = reachability_map(design, voxel, directions, progress=progress)
     written = [wmap.save_npz(out / "workspace.npz")]
@@ -42,7 +49,6 @@ def write_workspace_outputs(
         "collision_model": wmap.collision_model,
         "voxel_m": voxel,
         "directions": len(wmap.directions),
-        "collision_model": wmap.collision_model,
         "min_width_m": wmap.min_width,
         "mirrored_y_z": list(wmap.mirrored),
         "ik_queries": wmap.queries,
@@ -51,9 +57,11 @@ def write_workspace_outputs(
         "min_reach_check": min_reach_check(design),
     }
     if sensitivity:
-        # at the map settings asked for (not fixed ones)
+        s_voxel = max(voxel, 0.02) if sensitivity_voxel is None else sensitivity_voxel
+        s_dirs = min(directions, 36) if sensitivity_directions is None else sensitivity_directions
+        report["sensitivity_settings"] = {"voxel_m": s_voxel, "directions": s_dirs}
         report["sensitivity"] = global_sensitivity(
-            design, voxel=voxel, directions=directions, threshold=threshold
+            design, voxel=s_voxel, directions=s_dirs, threshold=threshold
         )
         written.append(
             sensitivity_picture(report["sensitivity"], out / "pictures" / "sensitivity.png")

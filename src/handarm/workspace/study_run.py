@@ -12,7 +12,6 @@ import io
 import json
 import math
 import os
-import signal
 from collections.abc import Callable
 from pathlib import Path
 
