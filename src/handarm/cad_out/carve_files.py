@@ -9,6 +9,7 @@
     OUT/carve.json                every link and joint in one file (degrees for limits)
     OUT/pictures/*.png            each link; the arm straight and folded
     OUT/NAME.urdf                 the URDF with the meshes and their inertials
+    OUT/NAME.mjcf.xml             the MuJoCo model: fixed base, limits, tendon actuators
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 
 from handarm._io import write_text_atomic
 from handarm.cad_out.meshes import print_pose, rpy_from_matrix, write_3mf, write_stl
+from handarm.cad_out.mjcf import write_mjcf
 from handarm.cad_out.pictures import arm_picture, folded_pose, link_picture
 from handarm.cad_out.urdf import LINK_NAMES, write_urdf
 from handarm.carve.carving import CarveResult
@@ -31,7 +33,7 @@ from handarm.carve.properties import link_properties
 __all__ = ["write_carve_outputs", "urdf_mesh_elements", "read_achieved_limits", "OUTPUT_STEPS"]
 
 #: Progress ticks write_carve_outputs makes (for a progress bar's total).
-OUTPUT_STEPS = 7 + 1 + 7 + 9 + 2
+OUTPUT_STEPS = 7 + 1 + 7 + 9 + 3
 
 
 def _f(x: float) -> str:
@@ -135,6 +137,8 @@ def write_carve_outputs(
         )
     )
     tick("urdf")
+    written.append(write_mjcf(result, props, out / f"{design.name}.mjcf.xml"))
+    tick("mjcf")
     return written
 
 
