@@ -270,9 +270,12 @@ def anchor_angles(design: ArmDesign, j: int) -> tuple[float, float]:
 
     The strand of side +1 reaches the tongue at +y and wraps it clockwise (over +x) to its
     anchor; at q it wraps (pi/2 - q) - angle, which must stay above the margin at the upper
-    limit, and symmetrically for side -1 at the lower limit.
+    limit, and symmetrically for side -1 at the lower limit. Like the forks, anchors are
+    placed for at least the nominal +-150 degrees, so that a larger range below it changes
+    no material.
     """
     lo, hi = design.joint_limits[j - 1]
+    lo, hi = min(lo, -NOMINAL_LIMIT), max(hi, NOMINAL_LIMIT)
     m = math.radians(ANCHOR_MARGIN_DEG)
     return math.pi / 2 - hi - m, -math.pi / 2 - lo + m
 

@@ -172,7 +172,9 @@ def _runs(design: ArmDesign) -> list[tuple[int, int, int, np.ndarray, np.ndarray
     return out
 
 
-def tendon_report(design: ArmDesign, carving=None, *, samples: int = 12, seed: int = 0) -> dict:
+def tendon_report(
+    design: ArmDesign, carving=None, *, samples: int = 12, seed: int = 0, poses=None
+) -> dict:
     """Trace every cable at several poses and check it meets no printed part.
 
     Each straight run (centre line grown by the cable radius plus the print clearance, a
@@ -191,6 +193,8 @@ def tendon_report(design: ArmDesign, carving=None, *, samples: int = 12, seed: i
         Random poses to add (>= 0).
     seed : int
         Seed of the random poses.
+    poses : array-like, shape (n, 6), optional
+        Check exactly these poses (rad) instead.
 
     Returns
     -------
@@ -218,7 +222,12 @@ def tendon_report(design: ArmDesign, carving=None, *, samples: int = 12, seed: i
     rc = design.cable_diameter * MM / 2 + design.clearance * MM
     runs = _runs(design)
     cyls = [(k, c, s, _cylinder(a, b, rc, 32)) for k, c, s, a, b in runs]
-    poses = _poses(design, carved, samples, seed)
+    if poses is None:
+        poses = _poses(design, carved, samples, seed)
+    else:
+        from handarm._checks import check_joints
+
+        poses = list(np.atleast_2d(check_joints(poses)))
     contacts = []
     for n, q in enumerate(poses):
         tf = np.empty((7, 4, 4))
