@@ -15,6 +15,7 @@ printed part except the pulley it wraps.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -29,6 +30,7 @@ __all__ = [
     "cut_lengths",
     "tendon_report",
     "tendon_summary",
+    "cable_clear_limits",
     "TIE_ALLOWANCE",
     "DEFAULT_MOTOR_RUN",
 ]
@@ -200,7 +202,9 @@ def tendon_report(
     -------
     dict
         ``clear`` (bool), ``poses`` (count), ``contacts`` (list of pose, cable, side, link,
-        volume in mm^3), ``cables`` (``CableLength.to_dict`` per cable with ``cut_length_m``).
+        volume in mm^3), ``cable_clear_deg`` (per joint, how far it turns alone with its
+        cables clear, ``cable_clear_limits``), ``cables`` (``CableLength.to_dict`` per cable
+        with ``cut_length_m``).
 
     Raises
     ------
@@ -256,10 +260,15 @@ def tendon_report(
                     )
     lengths = cable_lengths(design)
     cuts = cut_lengths(design)
+    clear_limits = cable_clear_limits(design, carving)
     return {
         "design": design.name,
         "clear": not contacts,
         "poses": len(poses),
+        "cable_clear_deg": [
+            {"joint": j + 1, "lower": math.degrees(lo), "upper": math.degrees(hi)}
+            for j, (lo, hi) in enumerate(clear_limits)
+        ],
         "cable_radius_plus_clearance_mm": rc,
         "contacts": contacts,
         "cables": [
@@ -279,6 +288,10 @@ def tendon_summary(report: dict) -> str:
             f"{ch['least'] * 1e3:+.1f} .. {ch['most'] * 1e3:+.1f} mm, "
             f"cut {c['cut_length_m'] * 1e3:.0f} mm"
         )
+    lines.append(
+        "  joints turn alone with their cables clear to (deg): "
+        + ", ".join(f"{c['lower']:.0f}..{c['upper']:.0f}" for c in report["cable_clear_deg"])
+    )
     if report["clear"]:
         lines.append(f"  every cable runs clear of the printed parts at {report['poses']} poses")
     else:
@@ -290,3 +303,55 @@ def tendon_summary(report: dict) -> str:
             f"meets {worst['meets']} at q = {worst['q_deg']} deg); see tendons.json"
         )
     return "\n".join(lines) + "\n"
+
+
+def _pinched(prox, dist, prox_runs, dist_runs, q: float) -> bool:
+    """Whether, at joint angle q, the distal link meets the proximal runs or vice versa."""
+    deg = math.degrees(q)
+    if (prox_runs ^ dist.rotate([0.0, 0.0, deg])).volume() > 1e-6:
+        return True
+    return (dist_runs.rotate([0.0, 0.0, deg]) ^ prox).volume() > 1e-6
+
+
+def cable_clear_limits(design: ArmDesign, carving, step_deg: float = 5.0) -> list[list[float]]:
+    """Per joint, how far (rad, each side) it turns alone before a cable meets a link.
+
+    Only joint j moves: the runs on l(j-1) and l(j) are intersected with the other of the
+    two carved links, stepping ``step_deg`` from 0 towards each carved limit and bisecting
+    the first contact to 0.5 degrees. Returns ``[[lower, upper], ...]`` for joints 1..6;
+    a side that stays clear up to its carved limit returns that limit.
+    """
+    from manifold3d import Manifold, OpType
+
+    from handarm.carve.carving import _cylinder, _in_joint_frame
+    from handarm.carve.sweep import _affine, frame_to_link
+
+    rc = design.cable_diameter * MM / 2 + design.clearance * MM
+    runs = _runs(design)
+    out = []
+    for j in range(1, 7):
+        p_link, d_link = carving.links[j - 1], carving.links[j]
+        prox = _in_joint_frame(p_link, "dist")
+        dist = _in_joint_frame(d_link, "prox")
+        to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
+        on_prox = [_cylinder(a, b, rc, 32) for k, _, _, a, b in runs if k == j - 1]
+        on_dist = [_cylinder(a, b, rc, 32) for k, _, _, a, b in runs if k == j]
+        prox_runs = Manifold.batch_boolean(on_prox, OpType.Add).transform(_affine(to_joint))
+        dist_runs = Manifold.batch_boolean(on_dist, OpType.Add) if on_dist else Manifold()
+
+        hit = functools.partial(_pinched, prox, dist, prox_runs, dist_runs)
+        sides = []
+        for end in carving.joints[j - 1].carved:
+            free, bad = 0.0, None
+            n = max(1, math.ceil(abs(math.degrees(end)) / step_deg))
+            for q in np.linspace(0.0, end, n + 1)[1:]:
+                if hit(float(q)):
+                    bad = float(q)
+                    break
+                free = float(q)
+            while bad is not None and abs(bad - free) > math.radians(0.5):
+                mid = 0.5 * (free + bad)
+                free, bad = (free, mid) if hit(mid) else (mid, bad)
+            sides.append(free)
+        out.append(sides)
+    return out
