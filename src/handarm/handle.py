@@ -37,7 +37,7 @@ import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
 
 from handarm.design import ArmDesign
-from handarm.links import MM, link_blank
+from handarm.links import MM, link_blank, strands_in_link
 
 __all__ = [
     "MotorPlace",
@@ -107,12 +107,20 @@ def _servo_mm(design: ArmDesign) -> dict:
 
 
 @functools.lru_cache(maxsize=16)
-def _exit(design: ArmDesign) -> tuple[float, list[float]]:
-    """X of the exit plate's back face and the heights of the six cable holes (mm)."""
-    blank = link_blank(design, 0)
-    plate = next(p for p in blank.parts if p.name == "cable exit plate")
-    holes = [h for h in blank.holes if h.name.startswith("cable ")]
-    return float(np.min(plate.polygon[:, 0])), [float(h.start[2]) for h in holes]
+def _exit(design: ArmDesign) -> tuple[float, list[float], float]:
+    """Where the cables leave l0 (mm), from ``links.strands_in_link``.
+
+    Returns the x of the exit, the height of each cable 1..6 (the middle of its two sides)
+    and the half spacing of the two sides.
+    """
+    strands = strands_in_link(design, 0)
+    x = max(st.start[0] for st in strands)
+    heights = []
+    for c in range(1, 7):
+        zs = [st.start[2] for st in strands if st.cable == c]
+        heights.append(float(np.mean(zs)))
+    half = float(np.mean([abs(st.start[1]) for st in strands]))
+    return float(x), heights, half
 
 
 def drum_radius(design: ArmDesign) -> float:
@@ -138,20 +146,26 @@ def _rect(place: MotorPlace, exit_x: float, t0: float, t1: float, half: float) -
 
 def saddle_footprint(design: ArmDesign, place: MotorPlace, swept: bool = True) -> np.ndarray:
     """Saddle outline seen from above (4, 2), mm; ``swept`` covers the whole travel + boss."""
-    exit_x, _ = _exit(design)
+    exit_x = _exit(design)[0]
     front, back, half = _saddle_span(design)
     extra = TRAVEL + BOSS if swept else 0.0
     return _rect(place, exit_x, place.distance + front, place.distance + back + extra, half)
 
 
+def _convex(points: np.ndarray) -> np.ndarray:
+    """The points in counter-clockwise order about their centroid (a convex polygon)."""
+    c = points.mean(axis=0)
+    return points[np.argsort(np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]))]
+
+
 def _wedge(design: ArmDesign, place: MotorPlace, t: float) -> np.ndarray:
-    """The cable seen from above: E and both tangent strands at the pulley (3, 2), mm."""
-    exit_x, _ = _exit(design)
+    """The cable seen from above (4, 2), mm: both sides from l0's exit to the pulley."""
+    exit_x, _, half = _exit(design)
     d = place.direction
     n = np.array([-d[1], d[0]])
     r = design.motor_pulley_radius * MM + design.cable_diameter * MM / 2
     p = place.along(exit_x, t)
-    return np.array([[exit_x, 0.0], p + r * n, p - r * n])
+    return _convex(np.array([[exit_x, half], [exit_x, -half], p + r * n, p - r * n]))
 
 
 def _sat_overlap(a: np.ndarray, b: np.ndarray, gap: float) -> bool:
@@ -182,34 +196,45 @@ def _poly_capsule_dist(poly: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     return min(d, *(_seg_dist(p, a, b) for p in poly))
 
 
-def _interval(design: ArmDesign, place: MotorPlace) -> tuple[float, float]:
-    """Directions (signed angle from -x, rad) the cable wedge covers over the travel."""
-    r = design.motor_pulley_radius * MM + design.cable_diameter * MM / 2 + design.clearance * MM
-    half = math.asin(min(1.0, r / place.distance))
-    mid = place.side * place.angle
-    return mid - half, mid + half
+def _drum_top(design: ArmDesign, place: MotorPlace) -> float:
+    """Height of the top of this servo's pulley (mm, base frame)."""
+    return place.exit_z + _groove_width(design) / 2 + DRUM_LIP
+
+
+def _passes_over(design: ArmDesign, u: MotorPlace, v: MotorPlace) -> bool:
+    """Whether cable u runs above everything of servo v (its pulley is the top)."""
+    below = u.exit_z - design.cable_diameter * MM / 2 - design.clearance * MM
+    return below > _drum_top(design, v)
 
 
 def _pair_problems(design: ArmDesign, p: MotorPlace, q: MotorPlace, cheap: bool) -> list[str]:
-    """What is wrong between motors p and q (one line each); stop at the first if cheap."""
-    exit_x, _ = _exit(design)
+    """What is wrong between servos p and q (one line each); stop at the first if cheap.
+
+    Each cable runs level at its exit height from l0 to its pulley, so two cables whose
+    heights differ by more than a cable's width plus the clearance never meet. A cable may
+    pass over a servo whose pulley top is below it; otherwise, seen from above, it keeps the
+    clearance from that servo's saddle over both tensioner travels.
+    """
     out = []
-    lo_p, hi_p = _interval(design, p)
-    lo_q, hi_q = _interval(design, q)
-    if lo_p < hi_q and lo_q < hi_p:
-        out.append(f"cables {q.motor} and {p.motor}: wedges overlap (cables cross)")
-        if cheap:
-            return out
     if _sat_overlap(saddle_footprint(design, p), saddle_footprint(design, q), GAP):
         out.append(f"motors {q.motor} and {p.motor}: saddles closer than {GAP} mm")
         if cheap:
             return out
-    reach = drum_radius(design) + design.cable_diameter * MM / 2 + design.clearance * MM
+    c = design.clearance * MM
+    if abs(p.exit_z - q.exit_z) < design.cable_diameter * MM + c:
+        for tp in (p.distance, p.distance + TRAVEL):
+            if _sat_overlap(_wedge(design, p, tp), _wedge(design, q, q.distance), c):
+                out.append(f"cables {q.motor} and {p.motor} cross at one height")
+                if cheap:
+                    return out
+                break
     for u, v in ((p, q), (q, p)):
-        a, b = v.along(exit_x, v.distance), v.along(exit_x, v.distance + TRAVEL)
+        if _passes_over(design, u, v):
+            continue
+        foot = saddle_footprint(design, v)
         for t in (u.distance, u.distance + TRAVEL):
-            if _poly_capsule_dist(_wedge(design, u, t), a, b) < reach:
-                out.append(f"cable {u.motor} runs into the pulley of motor {v.motor}")
+            if _sat_overlap(_wedge(design, u, t), foot, c):
+                out.append(f"cable {u.motor} runs into servo {v.motor}")
                 if cheap:
                     return out
                 break
@@ -217,7 +242,7 @@ def _pair_problems(design: ArmDesign, p: MotorPlace, q: MotorPlace, cheap: bool)
 
 
 def _alone_problems(design: ArmDesign, p: MotorPlace) -> list[str]:
-    exit_x, _ = _exit(design)
+    exit_x = _exit(design)[0]
     if saddle_footprint(design, p)[:, 0].max() > exit_x - GAP:
         return [f"motor {p.motor}: saddle reaches in front of the exit plate"]
     return []
@@ -254,10 +279,10 @@ def motor_layout(design: ArmDesign) -> tuple[MotorPlace, ...]:
         If no place within 300 mm of the exit plate fits a servo (the message names
         ``motor_pulley_radius`` or ``servo_model``).
     """
-    _, zs = _exit(design)
+    zs = _exit(design)[1]
     placed: list[MotorPlace] = []
-    angles = np.radians(np.arange(4.0, 88.0, 2.0))
-    distances = np.arange(10.0, 300.0, 2.0)
+    angles = np.radians(np.arange(0.0, 88.0, 3.0))
+    distances = np.arange(10.0, 300.0, 3.0)
     for m in range(6):
         side = 1 if m % 2 == 0 else -1
         best = None
@@ -290,7 +315,7 @@ def _groove_width(design: ArmDesign) -> float:
 def _levels(design: ArmDesign) -> dict:
     """Heights in the base frame (mm): groove, horn face, case top and bottom, bed."""
     s = _servo_mm(design)
-    horn_face = -(FLANGE + DRUM_LIP + _groove_width(design) / 2)
+    horn_face = min(_exit(design)[1]) - (FLANGE + DRUM_LIP + _groove_width(design) / 2)
     case_top = horn_face - s["horn_t"]
     case_bottom = case_top - s["d"]
     bed_top = case_bottom - SADDLE_FLOOR
@@ -363,14 +388,19 @@ def saddle_solid(design: ArmDesign) -> Manifold:
 
 def _place(design: ArmDesign, place: MotorPlace, t: float = 0.0) -> np.ndarray:
     """4x4 (mm) from a saddle's frame to the base frame, the tensioner at travel t."""
-    exit_x, _ = _exit(design)
+    exit_x = _exit(design)[0]
     d = place.direction
     m = np.eye(4)
     m[:2, 0] = d
     m[:2, 1] = [-d[1], d[0]]
     m[:2, 3] = place.along(exit_x, place.distance + t)
-    m[2, 3] = _levels(design)["case_bottom"]
+    m[2, 3] = _levels(design)["case_bottom"] + _rise(design, place)
     return m
+
+
+def _rise(design: ArmDesign, place: MotorPlace) -> float:
+    """How far this servo stands above the lowest (its groove at its cable's exit height)."""
+    return place.exit_z - min(_exit(design)[1])
 
 
 def _affine(m: np.ndarray) -> list[list[float]]:
@@ -475,9 +505,9 @@ class Handle:
         out = []
         for p in self.places:
             m = _place(self.design, p)
-            xy = m[:2, 3]
-            flange = self.pulley_flange.translate([xy[0], xy[1], lv["horn_face"]])
-            drum = self.pulley_drum.translate([xy[0], xy[1], lv["horn_face"] + FLANGE])
+            x, y, z = m[0, 3], m[1, 3], lv["horn_face"] + _rise(self.design, p)
+            flange = self.pulley_flange.translate([x, y, z])
+            drum = self.pulley_drum.translate([x, y, z + FLANGE])
             out.append(flange + drum)
         return out
 
@@ -499,7 +529,6 @@ def _mass_com(solid: Manifold, density: float) -> tuple[float, np.ndarray]:
 
 def _bed(design: ArmDesign, places, grip_xy) -> Manifold:
     lv = _levels(design)
-    exit_x, _ = _exit(design)
     front, back, half = _saddle_span(design)
     blank = link_blank(design, 0)
     handle_part = next(p for p in blank.parts if p.name == "handle")
@@ -525,6 +554,11 @@ def _bed(design: ArmDesign, places, grip_xy) -> Manifold:
         boss = _box(back + TRAVEL, back + TRAVEL + BOSS, -6.0, 6.0, -SADDLE_FLOOR - 0.5, 10.0)
         hole = _hole_x(M3_CLEAR / 2, back - 1, back + TRAVEL + BOSS + 1, 0.0, 5.0)
         parts.append(boss.transform(_affine(m)))
+        rise = _rise(design, p)
+        if rise > 0:
+            foot = CrossSection([saddle_footprint(design, p).tolist()])
+            riser = Manifold.extrude(foot, rise + 0.5).translate([0, 0, lv["bed_top"] - 0.5])
+            parts.append(riser)
         cuts.append(hole.transform(_affine(m)))
     grip = _cyl(GRIP_RADIUS, lv["bed_bottom"] - GRIP_LENGTH, lv["bed_bottom"] + 0.5, *grip_xy)
     parts.append(grip)
@@ -574,7 +608,8 @@ def handle(design: ArmDesign, carving=None) -> Handle:
         items.append((servo_mass, centre))
         ms, cs = _mass_com(saddle.transform(_affine(m)), rho)
         items.append((ms, cs))
-        for part, z in ((flange, lv["horn_face"]), (drum, lv["horn_face"] + FLANGE)):
+        z0 = lv["horn_face"] + _rise(design, p)
+        for part, z in ((flange, z0), (drum, z0 + FLANGE)):
             mp, cp = _mass_com(part.translate([m[0, 3], m[1, 3], z]), rho)
             items.append((mp, cp))
     masses["servos"] = 6 * servo_mass

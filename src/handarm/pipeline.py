@@ -195,6 +195,19 @@ def map_workspace(
         )
 
 
+def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path:
+    """``tendons.json`` (every cable traced at several poses) and its lines in the summary."""
+    import json
+
+    from handarm.tendons import tendon_report, tendon_summary
+
+    report = tendon_report(design, carving, samples=6)
+    path = out / "tendons.json"
+    write_text_atomic(path, json.dumps(report, indent=2) + "\n")
+    write_text_atomic(summary, design_summary(design) + tendon_summary(report))
+    return path
+
+
 def build(
     design: ArmDesign,
     out: str | os.PathLike[str],
@@ -207,7 +220,8 @@ def build(
     """Everything for one design, written into ``out``: the main job.
 
     Writes the design TOML, a text summary, the carving (meshes, 3MF plate, link
-    properties, pictures, the URDF with meshes), ``controller/`` (the servo controller's
+    properties, pictures, the URDF with meshes), ``tendons.json`` (every cable's path checked
+    at several poses, its lengths and cut length), ``controller/`` (the servo controller's
     files with the achieved limits) and ``workspace/`` (the reachability map and scores).
 
     Parameters
@@ -247,6 +261,7 @@ def build(
     files.append(summary)
     carving, paths = carve_design(design, out, resolution_deg=resolution_deg, progress=progress)
     files += paths
+    files.append(_write_tendons(design, carving, out, summary))
     achieved = [j.achieved for j in carving.joints]
     files += export_controller(design, out / "controller", achieved_limits=achieved)
     files += map_workspace(

@@ -112,23 +112,45 @@ def _blank_solid(blank: LinkBlank) -> Manifold:
     return solid - _holes(blank)
 
 
+def _cylinder(start, end, radius: float, segments: int = 32) -> Manifold:
+    """A cylinder of ``radius`` on the axis from ``start`` to ``end`` (same frame)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    cyl = Manifold.cylinder(length, radius, radius, segments)
+    # rotate z onto the axis, then place it
+    z = axis / length
+    ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(ref, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    m = np.eye(4)
+    m[:3, :3] = np.column_stack([x, y, z])
+    m[:3, 3] = start
+    return cyl.transform(_affine(m))
+
+
 def _holes(blank: LinkBlank) -> Manifold:
     cuts = []
     for h in blank.holes:
-        start, end = np.asarray(h.start, float), np.asarray(h.end, float)
-        axis = end - start
-        length = float(np.linalg.norm(axis))
-        cyl = Manifold.cylinder(length, h.radius, h.radius, 32)
-        # rotate z onto the hole's axis, then place it
-        z = axis / length
-        ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        x = np.cross(ref, z)
-        x /= np.linalg.norm(x)
-        y = np.cross(z, x)
-        m = np.eye(4)
-        m[:3, :3] = np.column_stack([x, y, z])
-        m[:3, 3] = start
-        cuts.append(cyl.transform(_affine(frame_to_link(blank, h.frame) @ m)))
+        # rings (cable grooves) get fine segments: their bottom is the pulley radius
+        n = 32 if h.inner_radius <= 0.0 else 128
+        cut = _cylinder(h.start, h.end, h.radius, n)
+        if h.inner_radius > 0.0:
+            length = float(np.linalg.norm(np.subtract(h.end, h.start)))
+            # the inner cylinder is circumscribed: the groove bottom is never inside its radius
+            inner = h.inner_radius / math.cos(math.pi / n)
+            grown = np.subtract(h.end, h.start) / length
+            cut = cut - _cylinder(np.subtract(h.start, grown), np.add(h.end, grown), inner, n)
+        cuts.append(cut.transform(_affine(frame_to_link(blank, h.frame))))
+    for ch in blank.channels:
+        # circumscribed: the corridor holds a cable of the full radius everywhere
+        cyls = [_cylinder(a, b, ch.radius / math.cos(math.pi / 24), 24) for a, b in ch.runs]
+        # runs come in groups per cable (the run, its copies pushed out): hull neighbours
+        n = ch.per_cable
+        cuts += [
+            Manifold.batch_hull(cyls[i : i + 2 * n]) for i in range(0, max(len(cyls) - n, 1), n)
+        ]
     return Manifold.batch_boolean(cuts, OpType.Add)
 
 
