@@ -208,6 +208,17 @@ def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path
     return path
 
 
+def _write_handle(design: ArmDesign, carving, out: Path, summary: Path) -> list[Path]:
+    """Handle meshes, bom.csv, assembly.html, the assembled picture; balance in the summary."""
+    from handarm.cad_out.handle_files import handle_summary, write_handle_outputs
+    from handarm.handle import handle
+
+    h = handle(design, carving)
+    paths = write_handle_outputs(h, carving, out)
+    write_text_atomic(summary, summary.read_text() + handle_summary(h))
+    return paths
+
+
 def build(
     design: ArmDesign,
     out: str | os.PathLike[str],
@@ -220,7 +231,9 @@ def build(
     """Everything for one design, written into ``out``: the main job.
 
     Writes the design TOML, a text summary, the carving (meshes, 3MF plate, link
-    properties, pictures, the URDF with meshes), ``tendons.json`` (every cable's path checked
+    properties, pictures, the URDF and the MuJoCo model), the handle (``handle/``: saddles,
+    bed with grip, motor pulleys; ``bom.csv``, ``assembly.html``), ``tendons.json`` (every
+    cable's path checked
     at several poses, its lengths and cut length), ``controller/`` (the servo controller's
     files with the achieved limits) and ``workspace/`` (the reachability map and scores).
 
@@ -262,6 +275,7 @@ def build(
     carving, paths = carve_design(design, out, resolution_deg=resolution_deg, progress=progress)
     files += paths
     files.append(_write_tendons(design, carving, out, summary))
+    files += _write_handle(design, carving, out, summary)
     achieved = [j.achieved for j in carving.joints]
     files += export_controller(design, out / "controller", achieved_limits=achieved)
     files += map_workspace(
