@@ -233,9 +233,9 @@ def build(
     Writes the design TOML, a text summary, the carving (meshes, 3MF plate, link
     properties, pictures, the URDF and the MuJoCo model), the handle (``handle/``: saddles,
     bed with grip, motor pulleys; ``bom.csv``, ``assembly.html``), ``tendons.json`` (every
-    cable's path checked
-    at several poses, its lengths and cut length), ``controller/`` (the servo controller's
-    files with the achieved limits) and ``workspace/`` (the reachability map and scores).
+    cable's path checked at several poses, its lengths and cut length), ``controller/``
+    (the servo controller's files with the achieved limits) and ``workspace/`` (the
+    reachability map and scores).
 
     Parameters
     ----------
