@@ -118,9 +118,13 @@ def test_bom_and_assembly_guide(built, tmp_path):
     d, carving, h = built
     paths = write_handle_outputs(h, carving, tmp_path)
     assert all(p.is_file() and p.stat().st_size > 0 for p in paths)
-    for name in ("saddle", "bed", "pulley_flange", "pulley_drum"):
+    solids = {"saddle": h.saddle, "bed": h.bed, "pulley_flange": h.pulley_flange}
+    solids["pulley_drum"] = h.pulley_drum
+    for name, solid in solids.items():
+        assert to_trimesh(solid).is_volume and len(solid.decompose()) == 1, name
         mesh = trimesh.load(tmp_path / "handle" / f"{name}.stl")
-        assert mesh.is_volume and mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)
+        assert mesh.volume == pytest.approx(solid.volume(), rel=1e-6)
+        assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)
     with open(tmp_path / "bom.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert rows == [{k: str(v) for k, v in r.items()} for r in bom_rows(h, carving)]
