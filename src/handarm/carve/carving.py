@@ -241,8 +241,9 @@ def carve(
     for k in range(7):
         cuts = [c for c in (cut_prox[k], cut_dist[k]) if c is not None]
         solid = solids[k] - Manifold.batch_boolean(cuts, OpType.Add) if cuts else solids[k]
-        # drop the zero-area slivers booleans leave, so that STL readers see a closed mesh
-        links.append(CarvedLink(blanks[k], solid.simplify(1e-6)))
+        # drop the zero-area slivers booleans leave (twice: the first pass can leave some),
+        # so that STL readers see a closed mesh
+        links.append(CarvedLink(blanks[k], solid.simplify(1e-5).simplify(1e-5)))
         tick(f"link l{k} carved")
     joints = []
     for j in range(1, 7):
