@@ -226,6 +226,10 @@ def tendon_report(
     rc = design.cable_diameter * MM / 2 + design.clearance * MM
     runs = _runs(design)
     cyls = [(k, c, s, _cylinder(a, b, rc, 32)) for k, c, s, a, b in runs]
+    by_link = {
+        k: Manifold.batch_boolean([m for kk, *_, m in cyls if kk == k], OpType.Add)
+        for k in {k for k, *_ in cyls}
+    }
     if poses is None:
         poses = _poses(design, carved, samples, seed)
     else:
@@ -239,25 +243,31 @@ def tendon_report(
         tf[1:] = joint_frames(design, q)[:6]
         tf[:, :3, 3] *= MM
         placed = [link.solid.transform(_affine(tf[i])) for i, link in enumerate(carving.links)]
-        cables = [(k, c, s, cyl.transform(_affine(tf[k]))) for k, c, s, cyl in cyls]
-        everything = Manifold.batch_boolean([m for *_, m in cables], OpType.Add)
-        for i, link in enumerate(placed):
-            if (everything ^ link).volume() <= 1e-6:
-                continue
-            for k, c, s, m in cables:
-                v = (m ^ link).volume()
-                if v > 1e-6:
-                    contacts.append(
-                        {
-                            "pose": n,
-                            "q_deg": [round(math.degrees(x), 2) for x in q],
-                            "cable": c,
-                            "side": s,
-                            "run_on": f"l{k}",
-                            "meets": f"l{i}",
-                            "volume_mm3": v,
-                        }
-                    )
+        boxes = [np.asarray(m.bounding_box()).reshape(2, 3) for m in placed]
+        for k, group in by_link.items():
+            moved = group.transform(_affine(tf[k]))
+            box = np.asarray(moved.bounding_box()).reshape(2, 3)
+            for i, link in enumerate(placed):
+                if np.any(box[1] < boxes[i][0]) or np.any(boxes[i][1] < box[0]):
+                    continue
+                if (moved ^ link).volume() <= 1e-6:
+                    continue
+                for kk, c, s, m in cyls:  # which cables: only now, one by one
+                    if kk != k:
+                        continue
+                    v = (m.transform(_affine(tf[k])) ^ link).volume()
+                    if v > 1e-6:
+                        contacts.append(
+                            {
+                                "pose": n,
+                                "q_deg": [round(math.degrees(x), 2) for x in q],
+                                "cable": c,
+                                "side": s,
+                                "run_on": f"l{k}",
+                                "meets": f"l{i}",
+                                "volume_mm3": v,
+                            }
+                        )
     lengths = cable_lengths(design)
     cuts = cut_lengths(design)
     clear_limits = cable_clear_limits(design, carving)

@@ -62,3 +62,27 @@ def test_faces_within_45_degrees_of_down_need_support(tilt):
     box = Manifold.cube([20.0, 10.0, 4.0]).rotate([0.0, tilt, 0.0])
     expected = 200.0 if tilt < 45.0 else 40.0
     assert support_area(to_trimesh(box), [0, 0, -1]) == pytest.approx(expected)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "changes",
+    [{}, {"link_lengths": (0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05)}, {"min_wall": 0.0019}],
+)
+def test_links_report_their_thinnest_wall_against_min_wall(changes):
+    """Every link reports a wall measured on its mesh; min_wall_met follows the design's
+    limit, and a stricter limit never turns a failing link into a passing one."""
+    from handarm.cad_out.carve_files import printing_report
+    from handarm.carve import carve
+
+    design = handarm.ArmDesign().replace(**changes)
+    result = carve(design, 2.0)
+    for link in result.links:
+        rep = printing_report(link, design.min_wall)
+        wall, _ = wall_thickness(link.solid, design.min_wall * 1e3)
+        assert rep["min_wall_m"] == pytest.approx(wall * 1e-3)
+        assert rep["min_wall_met"] == (wall * 1e-3 >= design.min_wall - 1e-12)
+        assert (rep["thin_area_mm2"] > 0) == (not rep["min_wall_met"])
+        strict = printing_report(link, design.min_wall + 0.001)
+        assert strict["min_wall_met"] <= rep["min_wall_met"]
+        assert strict["support_area_mm2"] == pytest.approx(rep["support_area_mm2"])
