@@ -4,20 +4,22 @@ Paper II-B (Fig. 6): six servos sit on printed saddles that slide in a bed; a bo
 a lead screw moves each saddle along its cable to tension it, and the servos stand in a
 sideways "V" so that every cable can be tensioned on its own without the cables crossing.
 
-Layout (base frame, mm; the arm points along +x from joint 1 at the origin): the cables leave
-l0's exit plate at ``E = (x_e, 0)`` in a vertical stack and run back in the horizontal plane
-of the motor pulleys (z = 0). Each servo stands horn up under its pulley, its case along its
-cable's direction, so that sliding it along the cable (tensioning) does not turn the cable.
-Seen from above every cable is a narrow wedge from E to its pulley; ``motor_layout`` places
-the servos one after the other, alternating sides, each as close to E as it can go while
+Layout (base frame, mm; the arm points along +x from joint 1 at the origin): both sides of
+each cable leave l0's exit (``links.strands_in_link``) at the cable's own height and run level
+to its servo's pulley, whose groove sits at that height (the bed rises under the higher
+servos). Each servo stands horn up, its case along its cable's direction, so that sliding it
+along the cable (tensioning) does not turn the cable. ``motor_layout`` places the servos one
+after the other, alternating sides, each as close to the exit as it can go (a 3 degree by
+3 mm grid) while, over the whole tensioner travel of both servos of every pair,
 
-* its saddle, over the whole tensioner travel, keeps ``GAP`` from every other saddle,
-* its cable's wedge shares no direction with another cable's wedge (no crossing), and keeps
-  the cable's radius plus the clearance from every other pulley, over the travel,
-* all of it stays behind the exit plate.
+* the saddles keep ``GAP`` apart and stay behind the exit plate,
+* two cables at heights closer than a cable's width plus the clearance do not overlap seen
+  from above (level cables at different heights cannot meet),
+* a cable either passes above a servo (above its pulley's top) or keeps the clearance from
+  that servo's saddle seen from above.
 
-``check_layout`` re-checks these conditions independently (shapely-free polygon geometry) and
-the tests hold the layout against it.
+``layout_problems`` lists what breaks these rules; the tests re-check a layout by brute force
+in 3D (cable sides as segments, servo cases as boxes).
 
 The grip is a vertical cylinder under the bed, placed under the centre of mass of the arm at
 q = 0 with the servos, pulleys, saddles and bed, so that holding the handle upright needs no
