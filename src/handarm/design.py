@@ -112,6 +112,9 @@ class ArmDesign:
         Servo bus baud rate (bit/s).
     density : float
         Density of the printed link material (kg/m^3); ABS by default.
+    min_wall : float
+        Thinnest wall a printed part may have (m); 1.2 mm suits a 0.4 mm nozzle. Carving
+        measures every part's thinnest wall against it (``links/*.json``).
     collision_model : str
         What ``is_valid`` and the IK call a collision: ``"printed"`` (default) checks the
         envelopes of the links the build prints, all 15 non-adjacent pairs, with the
@@ -139,6 +142,7 @@ class ArmDesign:
     baud_rate: int = 1_000_000
     density: float = 1040.0
     collision_model: str = "printed"
+    min_wall: float = 0.0012
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

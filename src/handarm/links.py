@@ -27,7 +27,18 @@ import numpy as np
 
 from handarm.design import ArmDesign
 
-__all__ = ["Part", "Hole", "LinkBlank", "JointGeometry", "joint_geometry", "link_blank", "MM"]
+__all__ = [
+    "Part",
+    "Hole",
+    "LinkBlank",
+    "JointGeometry",
+    "Strand",
+    "joint_geometry",
+    "link_blank",
+    "strands_in_link",
+    "anchor_angles",
+    "MM",
+]
 
 MM = 1000.0  # metres -> millimetres
 _CIRCLE_SEGMENTS = 48
@@ -47,18 +58,62 @@ class Part:
 
 @dataclasses.dataclass(frozen=True)
 class Hole:
-    """A cylindrical hole: axis from ``start`` to ``end`` (mm, in ``frame``), ``radius``."""
+    """A cylindrical hole: axis from ``start`` to ``end`` (mm, in ``frame``), ``radius``.
+
+    With ``inner_radius`` > 0 it is a ring (a cable groove): only what lies between the two
+    radii is cut.
+    """
 
     name: str
     frame: str
     start: tuple[float, float, float]
     end: tuple[float, float, float]
     radius: float
+    inner_radius: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Strand:
+    """One straight run of one side of a cable along link ``link``, in its frame (mm).
+
+    Cable ``cable`` (1..6) is a closed loop: side +1 runs at +y of the joint planes at
+    q = 0, side -1 at -y. Along a link the run is a straight line from where it leaves the
+    pulley or idler of the link's proximal joint (on l0: the cable exit, towards the
+    motors) to where it meets the pulley or idler of the distal joint.
+    """
+
+    link: int
+    cable: int
+    side: int
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    segment: int = 0  # on l3 a run is three segments: lead-out, the 90-degree twist, lead-in
+
+
+@dataclasses.dataclass(frozen=True)
+class Channel:
+    """A cable corridor cut through a link: the hull of consecutive cylinders, ``radius`` (mm).
+
+    ``runs`` are (start, end) axis pairs in the link frame, in pairs (a cable's run, the
+    same run pushed out to the link's edge), cable after cable; each pair of pairs is hulled
+    with the next (no sliver walls between cables, the corridor opens sideways).
+    """
+
+    name: str
+    runs: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...]
+    radius: float
+    per_cable: int = 2  # runs per cable: the run and its copies pushed outwards
 
 
 @dataclasses.dataclass(frozen=True)
 class JointGeometry:
-    """Sizes at joint j (mm): tongue, fork gap and width, hub radii, axle bore."""
+    """Sizes at joint j (mm): tongue, fork gap and width, hub radii, axle bore, cable slots.
+
+    The tongue is centred on z = 0 (the arm's plane); the fork's gap runs from ``gap_lo`` to
+    ``gap_hi`` along the axle, with the ``idlers`` whole idlers stacked on the +z side of the
+    tongue. ``groove_radius`` is where the cable's centre line wraps the tongue: the
+    transmission's pulley radius, the same number.
+    """
 
     joint: int
     idlers: int
@@ -68,6 +123,26 @@ class JointGeometry:
     fork_width: float
     hub_radius: float
     bore_radius: float
+    gap_lo: float
+    gap_hi: float
+    groove_radius: float
+    idler_width: float
+    clearance: float
+
+    lane: float  # the two strands of the driving cable wrap the tongue at z = +-lane
+
+    def slot_z(self, slot: int, side: int = 1) -> float:
+        """Axle position (mm) of a strand on slot 0 (the tongue) or idler 1 .. ``idlers``.
+
+        On the tongue the strand of side +1 (+y at q = 0) runs in the lane at +``lane``, the
+        other at -``lane``: each wraps up to a turn, so they need a lane each.
+        """
+        if not 0 <= slot <= self.idlers:
+            raise ValueError(f"slot: expected 0..{self.idlers} at joint {self.joint}, got {slot}")
+        if slot == 0:
+            return side * self.lane
+        t = self.tongue_thickness / 2 + self.clearance / 2
+        return t + (slot - 0.5) * self.idler_width
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
@@ -83,6 +158,7 @@ class LinkBlank:
     holes: tuple[Hole, ...]
     length: float
     dist_from_prox: np.ndarray | None
+    channels: tuple[Channel, ...] = ()
 
     @property
     def name(self) -> str:
@@ -120,6 +196,12 @@ def joint_geometry(design: ArmDesign, j: int) -> JointGeometry:
         fork_width=gap + 2 * design.cheek_thickness * MM,
         hub_radius=design.hub_radius * MM,
         bore_radius=design.axle_diameter * MM / 2 + c / 2,
+        gap_lo=-tongue_t / 2 - c,
+        gap_hi=-tongue_t / 2 - c + gap,
+        groove_radius=pulley,
+        idler_width=design.idler_width * MM,
+        clearance=c,
+        lane=(design.cable_diameter * MM + c) / 2,
     )
 
 
@@ -130,20 +212,21 @@ def _fork(g: JointGeometry, frame: str, length: float, clear: float) -> list[Par
     margins): the bridge starts beyond it, so nothing of this link turns through the
     neighbour's tongue.
     """
-    half_gap, w = g.gap / 2, g.fork_width / 2
+    lo, hi = g.gap_lo, g.gap_hi
+    cheek = (g.fork_width - g.gap) / 2
     hub = _circle(g.hub_radius)
     plate = _box(-length, 0.0, -g.hub_radius, g.hub_radius)
     return [
-        Part(f"fork cheek + at joint {g.joint}", frame, hub, half_gap, w, axisymmetric=True),
-        Part(f"fork cheek - at joint {g.joint}", frame, hub, -w, -half_gap, axisymmetric=True),
-        Part(f"fork plate + at joint {g.joint}", frame, plate, half_gap, w),
-        Part(f"fork plate - at joint {g.joint}", frame, plate, -w, -half_gap),
+        Part(f"fork cheek + at joint {g.joint}", frame, hub, hi, hi + cheek, axisymmetric=True),
+        Part(f"fork cheek - at joint {g.joint}", frame, hub, lo - cheek, lo, axisymmetric=True),
+        Part(f"fork plate + at joint {g.joint}", frame, plate, hi, hi + cheek),
+        Part(f"fork plate - at joint {g.joint}", frame, plate, lo - cheek, lo),
         Part(
             f"fork bridge at joint {g.joint}",
             frame,
             _box(-length, -clear, -g.hub_radius, g.hub_radius),
-            -w,
-            w,
+            lo - cheek,
+            hi + cheek,
         ),
     ]
 
@@ -178,6 +261,56 @@ def _fork_sizes(design: ArmDesign, g: JointGeometry, a: float) -> tuple[float, f
     return length, min(clear, length - 3.0)
 
 
+#: How far (degrees) each strand still wraps the tongue at the end of the joint's range.
+ANCHOR_MARGIN_DEG = 20.0
+
+
+def anchor_angles(design: ArmDesign, j: int) -> tuple[float, float]:
+    """Angles (rad, in link j's frame, from +x) of the cable anchors of sides +1 and -1.
+
+    The strand of side +1 reaches the tongue at +y and wraps it clockwise (over +x) to its
+    anchor; at q it wraps (pi/2 - q) - angle, which must stay above the margin at the upper
+    limit, and symmetrically for side -1 at the lower limit. Like the forks, anchors are
+    placed for at least the nominal +-150 degrees, so that a larger range below it changes
+    no material.
+    """
+    lo, hi = design.joint_limits[j - 1]
+    lo, hi = min(lo, -NOMINAL_LIMIT), max(hi, NOMINAL_LIMIT)
+    m = math.radians(ANCHOR_MARGIN_DEG)
+    return math.pi / 2 - hi - m, -math.pi / 2 - lo + m
+
+
+def _groove_and_anchors(design: ArmDesign, g: JointGeometry) -> list[Hole]:
+    """The cable groove (two lanes) round the tongue and an anchor hole per strand."""
+    cable_r = design.cable_diameter * MM / 2
+    half = g.lane + cable_r + g.clearance / 2
+    holes = [
+        Hole(
+            f"cable groove at joint {g.joint}",
+            "prox",
+            (0.0, 0.0, -half),
+            (0.0, 0.0, half),
+            g.tongue_radius + 1.0,
+            inner_radius=g.groove_radius - cable_r,
+        )
+    ]
+    hole_r = cable_r + g.clearance / 2
+    at = g.groove_radius - cable_r - 0.6 * hole_r  # breaks into the groove's bottom
+    face = g.tongue_thickness / 2 + 1.0
+    for side, angle in zip((1, -1), anchor_angles(design, g.joint), strict=True):
+        x, y = at * math.cos(angle), at * math.sin(angle)
+        holes.append(
+            Hole(
+                f"cable anchor {'+' if side > 0 else '-'} at joint {g.joint}",
+                "prox",
+                (x, y, side * g.lane),
+                (x, y, side * face),
+                hole_r,
+            )
+        )
+    return holes
+
+
 def _tongue(g: JointGeometry) -> Part:
     t = g.tongue_thickness / 2
     return Part(
@@ -195,6 +328,97 @@ def _axle(g: JointGeometry, frame: str) -> Hole:
     return Hole(f"axle bore at joint {g.joint}", frame, (0, 0, -h), (0, 0, h), g.bore_radius)
 
 
+#: Length (mm) of the cable exit plate at the end of l0.
+EXIT_PLATE = 4.0
+
+
+def _dist_transform(design: ArmDesign, k: int) -> np.ndarray | None:
+    """4x4 (mm) from link k's distal joint frame into its link frame; None for l0 and l6."""
+    if k in (0, 6):
+        return None
+    dist = np.eye(4)
+    dist[0, 3] = design.link_lengths[k] * MM
+    if k == 3:
+        # joint 4's axle is l3's -y axis: the fork turns by 90 degrees about x
+        dist = dist @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], float)
+    return dist
+
+
+def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
+    """The straight cable runs along link k (0..5), in its frame (mm); none on l6.
+
+    Cable c passes link k for c > k: it leaves joint k on its idler c - k (on l0: the cable
+    exit, past the exit plate) and meets joint k + 1 on idler c - k - 1, or on the tongue
+    (idler 0) when c = k + 1. Both points sit at +-(pulley radius) from the axle.
+    """
+    if not 0 <= k <= 6:
+        raise ValueError(f"link: expected 0..6, got {k}")
+    if k == 6:
+        return []
+    g_dist = joint_geometry(design, k + 1)
+    if k == 0:
+        to_link = np.eye(4)
+    else:
+        to_link = _dist_transform(design, k)
+        g_prox = joint_geometry(design, k)
+    out = []
+    for cable in range(k + 1, 7):
+        for side in (1, -1):
+            end = to_link @ np.array(
+                [0.0, side * g_dist.groove_radius, g_dist.slot_z(cable - k - 1, side), 1.0]
+            )
+            end = tuple(float(v) for v in end[:3])
+            if k == 0:
+                x0 = -design.link_lengths[0] * MM - EXIT_PLATE - 1.0
+                start = (x0, end[1], end[2])
+            else:
+                start = (0.0, side * g_prox.groove_radius, g_prox.slot_z(cable - k, side))
+            if k != 3:
+                out.append(Strand(k, cable, side, start, end))
+                continue
+            # the turn: leave joint 3 and meet joint 4 in their planes (no fleet angle at the
+            # pulleys), twist in between through l3's channel
+            lead_out = g_prox.tongue_radius + 2.0
+            lead_in = g_dist.tongue_radius + 2.0
+            p1 = (start[0] + lead_out, start[1], start[2])
+            p2 = (end[0] - lead_in, end[1], end[2])
+            for n, (a, b) in enumerate(((start, p1), (p1, p2), (p2, end))):
+                out.append(Strand(k, cable, side, a, b, segment=n))
+    return out
+
+
+def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
+    """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
+    radius = design.cable_diameter * MM / 2 + design.clearance * MM
+    dist = _dist_transform(design, k)
+    y = np.array([0.0, 1.0, 0.0])
+    out_end = y if dist is None else dist[:3, 1]
+    out = []
+    strands = strands_in_link(design, k)
+    for side, segment in sorted({(st.side, st.segment) for st in strands}, reverse=True):
+        runs = []
+        for st in strands:
+            if st.side != side or st.segment != segment:
+                continue
+            a, b = np.array(st.start), np.array(st.end)
+            runs.append((tuple(a), tuple(b)))
+            # the same run pushed out beyond the hubs: the corridor opens sideways (on l3,
+            # in the plane of the joint the segment's end is aligned with)
+            push = 2.0 * radius
+            out_a = out_end if (k == 3 and st.segment == 2) else y
+            out_b = y if (k == 3 and st.segment == 0) else out_end
+            runs.append((tuple(a + side * push * out_a), tuple(b + side * push * out_b)))
+            if k == 3 and st.segment == 1:
+                # the twist: open the corridor towards both planes (no skin over the fork)
+                runs.append((tuple(a + side * push * y), tuple(b + side * push * y)))
+        if runs:
+            label = "+" if side > 0 else "-"
+            name = f"cable corridor {label} in l{k}" + (f", part {segment + 1}" if k == 3 else "")
+            per = 3 if (k == 3 and segment == 1) else 2
+            out.append(Channel(name, tuple(runs), radius, per))
+    return tuple(out)
+
+
 def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     """The uncarved link k (0..6), in mm."""
     if not 0 <= k <= 6:
@@ -206,25 +430,21 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     if k == 0:
         # the handle stub: base frame = joint 1's frame; cables leave through the end plate
         g = joint_geometry(design, 1)
-        w = g.fork_width / 2
+        z0, z1 = g.gap_lo - (g.fork_width - g.gap) / 2, g.gap_hi + (g.fork_width - g.gap) / 2
         _, clear = _fork_sizes(design, g, a)
         parts += _fork(g, "dist", length=a, clear=clear)
-        parts.append(Part("handle", "dist", _box(-a, -clear, -bw, bw), -w, w))
-        plate = 4.0
-        parts.append(Part("cable exit plate", "dist", _box(-a - plate, -a, -bw - 4, bw + 4), -w, w))
-        cable_r = design.cable_diameter * MM / 2 + design.clearance * MM
-        pitch = min(3.0 * cable_r, (2 * w - 4) / 6)
-        for c in range(6):
-            z = (c - 2.5) * pitch
-            holes.append(
-                Hole(f"cable {c + 1} exit", "dist", (-a - plate - 1, 0, z), (-a + 1, 0, z), cable_r)
-            )
+        parts.append(Part("handle", "dist", _box(-a, -clear, -bw, bw), z0, z1))
+        plate = EXIT_PLATE
+        parts.append(
+            Part("cable exit plate", "dist", _box(-a - plate, -a, -bw - 4, bw + 4), z0, z1)
+        )
         holes.append(_axle(g, "dist"))
-        return LinkBlank(0, tuple(parts), tuple(holes), a, None)
+        return LinkBlank(0, tuple(parts), tuple(holes), a, None, _channels(design, 0))
     g_prox = joint_geometry(design, k)
     t = g_prox.tongue_thickness / 2
     parts.append(_tongue(g_prox))
     holes.append(_axle(g_prox, "prox"))
+    holes += _groove_and_anchors(design, g_prox)
     if k == 6:
         parts.append(Part("beam", "prox", _box(0.0, a, -bw, bw), -t, t))
         # tool mount: a boss at the tip with a bore along x for the tool's shank
@@ -236,12 +456,8 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     # the fork runs back along half the link; its bridge and the beam stop short of the
     # neighbour's tongue
     length, clear = _fork_sizes(design, g_dist, a)
-    dist = np.eye(4)
-    dist[0, 3] = a
-    if k == 3:
-        # joint 4's axle is l3's -y axis: the fork turns by 90 degrees about x
-        dist = dist @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], float)
+    dist = _dist_transform(design, k)
     parts.append(Part("beam", "prox", _box(0.0, a - clear, -bw, bw), -t, t))
     parts += _fork(g_dist, "dist", length=length, clear=clear)
     holes.append(_axle(g_dist, "dist"))
-    return LinkBlank(k, tuple(parts), tuple(holes), a, dist)
+    return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k))

@@ -223,6 +223,30 @@ def map_workspace(
         )
 
 
+def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path:
+    """``tendons.json`` (every cable traced at several poses) and its lines in the summary."""
+    import json
+
+    from handarm.tendons import tendon_report, tendon_summary
+
+    report = tendon_report(design, carving, samples=6)
+    path = out / "tendons.json"
+    write_text_atomic(path, json.dumps(report, indent=2) + "\n")
+    write_text_atomic(summary, design_summary(design) + tendon_summary(report))
+    return path
+
+
+def _write_handle(design: ArmDesign, carving, out: Path, summary: Path) -> list[Path]:
+    """Handle meshes, bom.csv, assembly.html, the assembled picture; balance in the summary."""
+    from handarm.cad_out.handle_files import handle_summary, write_handle_outputs
+    from handarm.handle import handle
+
+    h = handle(design, carving)
+    paths = write_handle_outputs(h, carving, out)
+    write_text_atomic(summary, summary.read_text() + handle_summary(h))
+    return paths
+
+
 def build(
     design: ArmDesign,
     out: str | os.PathLike[str],
@@ -237,9 +261,12 @@ def build(
     """Everything for one design, written into ``out``: the main job.
 
     Writes the design TOML, a text summary, the carving (meshes, 3MF plate, link
-    properties, pictures, the URDF with meshes), ``controller/`` (the servo controller's
-    files with the achieved limits), ``workspace/`` (the reachability map and scores) and,
-    last, ``report.html`` (the interactive page of all of it, see ``handarm.report``).
+    properties, pictures, the URDF and the MuJoCo model), the handle (``handle/``: saddles,
+    bed with grip, motor pulleys; ``bom.csv``, ``assembly.html``), ``tendons.json`` (every
+    cable's path checked at several poses, its lengths and cut length), ``controller/``
+    (the servo controller's files with the achieved limits), ``workspace/`` (the
+    reachability map and scores) and, last, ``report.html`` (the interactive page of all
+    of it, see ``handarm.report``).
 
     Parameters
     ----------
@@ -287,6 +314,8 @@ def build(
             design, out, resolution_deg=resolution_deg, progress=progress, **limits
         )
         files += paths
+        files.append(_write_tendons(design, carving, out, summary))
+        files += _write_handle(design, carving, out, summary)
         achieved = [j.achieved for j in carving.joints]
         files += export_controller(design, out / "controller", achieved_limits=achieved)
         files += map_workspace(

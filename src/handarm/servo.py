@@ -2,8 +2,13 @@
 
 Every number about the servo lives here: the model number on the bus, encoder ticks per
 revolution, the joint-mode and multi-turn ranges, stall torque and no-load speed at the rated
-voltage, mass and body outline. Sources: ROBOTIS e-manual, MX-64 page (Protocol 1.0 firmware,
-model number 310; specifications table).
+voltage, mass, body outline and where the horn sits. Sources: ROBOTIS e-manual, MX-64 page
+(Protocol 1.0 firmware, model number 310; specifications table: weight, "Dimensions (W x H x D)
+40.2 x 61.1 x 41 mm"); horn part numbers and screw sizes from the Poppy project's assembly notes
+(MX-64: horn HN05-N102, horn screws M2.5 x 4, centre screw M3 x 8, case screws M2.5 x 6).
+The horn's place on the case, its diameter and bolt circle were not found in the sources searched
+(the ROBOTIS drawing is a PDF not held here): they are marked ASSUMED below and must be checked
+against the servo in hand (the handle and pulleys read them from here only).
 """
 
 from __future__ import annotations
@@ -44,6 +49,23 @@ class ServoSpec:
         Mass of the servo (kg).
     outline : tuple of 3 float
         Body width x height x depth (m), horn axis along the depth.
+    horn_offset : float
+        Distance of the horn axis from the centre of the case along its height (m); the axis
+        lies in the middle of the width and leaves the case on the front face (depth).
+    horn_diameter : float
+        Outer diameter of the horn disc (m).
+    horn_thickness : float
+        How far the horn stands proud of the case's front face (m).
+    horn_bolt_circle : float
+        Diameter of the circle of threaded holes in the horn (m).
+    horn_bolts : int
+        Number of threaded holes on that circle.
+    horn_bolt : str
+        Thread and length of the horn screws.
+    horn_part : str
+        ROBOTIS part number of the horn.
+    case_screw : str
+        Thread and length of the screws that hold the case (and a saddle) together.
     """
 
     name: str
@@ -58,6 +80,14 @@ class ServoSpec:
     voltage: float
     mass: float
     outline: tuple[float, float, float]
+    horn_offset: float
+    horn_diameter: float
+    horn_thickness: float
+    horn_bolt_circle: float
+    horn_bolts: int
+    horn_bolt: str
+    horn_part: str
+    case_screw: str
 
     @property
     def ticks_per_radian(self) -> float:
@@ -75,7 +105,15 @@ _MX64 = dict(
     stall_torque=6.0,  # N m at 12 V, 4.1 A
     no_load_speed=63.0 * 2.0 * math.pi / 60.0,  # 63 rpm at 12 V
     voltage=12.0,
-    outline=(0.0402, 0.0611, 0.041),
+    outline=(0.0402, 0.0611, 0.041),  # W x H x D, e-manual specifications table
+    horn_offset=0.0155,  # ASSUMED: axis 15 mm from the top end of the 61.1 mm case
+    horn_diameter=0.028,  # ASSUMED
+    horn_thickness=0.003,  # ASSUMED
+    horn_bolt_circle=0.016,  # ASSUMED
+    horn_bolts=8,  # ASSUMED
+    horn_bolt="M2.5 x 4",  # Poppy assembly notes
+    horn_part="HN05-N102",  # Poppy assembly notes
+    case_screw="M2.5 x 6",  # Poppy assembly notes
 )
 
 #: Servo models the toolkit knows, by the name used in design files.

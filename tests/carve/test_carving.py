@@ -149,4 +149,5 @@ def test_mass_properties_match_trimesh(carved):
     link = carved.links[2]
     mesh = to_trimesh(link.solid)
     assert isinstance(mesh, trimesh.Trimesh)
-    assert mesh.volume == pytest.approx(link.solid.volume(), rel=1e-9)
+    # the mesh's vertices are float32: curved corridors and grooves leave ~1e-8 relative
+    assert mesh.volume == pytest.approx(link.solid.volume(), rel=1e-7)

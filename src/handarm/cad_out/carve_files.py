@@ -5,10 +5,12 @@
     OUT/meshes/l0.stl .. l6.stl   binary STL per link, print pose, mm
     OUT/plate.3mf                 all links on one plate, mm
     OUT/links/l0.json .. l6.json  per link: volume, mass, centre of mass, inertia, bounding box,
-                                  minimum cross-section, requested and achieved limits (SI)
+                                  minimum cross-section, requested and achieved limits (SI),
+                                  print pose, support area, thinnest wall against min_wall
     OUT/carve.json                every link and joint in one file (degrees for limits)
     OUT/pictures/*.png            each link; the arm straight and folded
     OUT/NAME.urdf                 the URDF with the meshes and their inertials
+    OUT/NAME.mjcf.xml             the MuJoCo model: fixed base, limits, tendon actuators
 """
 
 from __future__ import annotations
@@ -22,16 +24,29 @@ from pathlib import Path
 import numpy as np
 
 from handarm._io import read_regular_bytes, write_text_atomic
-from handarm.cad_out.meshes import print_pose, rpy_from_matrix, write_3mf, write_stl
+from handarm.cad_out.meshes import (
+    print_orientation,
+    print_pose,
+    rpy_from_matrix,
+    write_3mf,
+    write_stl,
+)
+from handarm.cad_out.mjcf import write_mjcf
 from handarm.cad_out.pictures import arm_picture, folded_pose, link_picture
 from handarm.cad_out.urdf import LINK_NAMES, write_urdf
 from handarm.carve.carving import CarveResult
-from handarm.carve.properties import link_properties
+from handarm.carve.properties import link_properties, wall_thickness
 
-__all__ = ["write_carve_outputs", "urdf_mesh_elements", "read_achieved_limits", "OUTPUT_STEPS"]
+__all__ = [
+    "write_carve_outputs",
+    "urdf_mesh_elements",
+    "read_achieved_limits",
+    "printing_report",
+    "OUTPUT_STEPS",
+]
 
 #: Progress ticks write_carve_outputs makes (for a progress bar's total).
-OUTPUT_STEPS = 7 + 1 + 7 + 9 + 2
+OUTPUT_STEPS = 7 + 1 + 7 + 9 + 3
 
 
 def _f(x: float) -> str:
@@ -75,6 +90,24 @@ def urdf_mesh_elements(result: CarveResult, properties, mesh_dir: str = "meshes"
     return extras
 
 
+def printing_report(link, min_wall: float) -> dict:
+    """Print pose, remaining support area and thinnest wall of one carved link (JSON-ready).
+
+    ``min_wall`` is the design's limit (m). ``min_wall_met`` is False where carving left a
+    wall thinner than it (``thin_area_mm2`` says how much surface).
+    """
+    down, support = print_orientation(link)
+    wall, thin = wall_thickness(link.solid, min_wall * 1e3)
+    return {
+        "print_down_axis": [float(round(v, 6)) + 0.0 for v in down],
+        "support_area_mm2": support,
+        "min_wall_m": wall * 1e-3,
+        "min_wall_required_m": min_wall,
+        "min_wall_met": bool(wall >= min_wall * 1e3 - 1e-9),
+        "thin_area_mm2": thin,
+    }
+
+
 def _limits_of(result: CarveResult, k: int) -> list[dict]:
     """Reports of the joints at link k's ends."""
     return [j.to_dict() for j in result.joints if j.joint in (k, k + 1)]
@@ -97,6 +130,7 @@ def write_carve_outputs(
     for link in result.links:
         p = link_properties(link, design.density)
         p["joints"] = _limits_of(result, link.index)
+        p.update(printing_report(link, design.min_wall))
         props.append(p)
         path = out / "links" / f"{link.name}.json"
         write_text_atomic(path, json.dumps(p, indent=2) + "\n")
@@ -135,6 +169,8 @@ def write_carve_outputs(
         )
     )
     tick("urdf")
+    written.append(write_mjcf(result, props, out / f"{design.name}.mjcf.xml"))
+    tick("mjcf")
     return written
 
 

@@ -27,6 +27,8 @@ __all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"
 _LIMIT_TOL = math.radians(0.05)
 _CONTACT_VOLUME = 1e-6  # mm^3: less than this is rounding, not contact
 _BORE_WALL = MIN_BORE_WALL * MM  # wall around the axle bore that must survive carving
+_JITTER_MM = 1e-4  # see carve(): cuts are grown by twice this and shifted by less
+_JITTER = [0.6e-4, 0.5e-4, 0.4e-4]  # mm, |shift| < _JITTER_MM
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
@@ -102,23 +104,56 @@ def _blank_solid(blank: LinkBlank) -> Manifold:
     return solid - _holes(blank)
 
 
+def _cylinder(start, end, radius: float, segments: int = 32) -> Manifold:
+    """A cylinder of ``radius`` on the axis from ``start`` to ``end`` (same frame)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    axis = end - start
+    length = float(np.linalg.norm(axis))
+    cyl = Manifold.cylinder(length, radius, radius, segments)
+    # rotate z onto the axis, then place it
+    z = axis / length
+    ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(ref, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    m = np.eye(4)
+    m[:3, :3] = np.column_stack([x, y, z])
+    m[:3, 3] = start
+    return cyl.transform(_affine(m))
+
+
+def _lengthened(a, b, by: float) -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    u = (b - a) / np.linalg.norm(b - a)
+    return a - by * u, b + by * u
+
+
 def _holes(blank: LinkBlank) -> Manifold:
     cuts = []
     for h in blank.holes:
-        start, end = np.asarray(h.start, float), np.asarray(h.end, float)
-        axis = end - start
-        length = float(np.linalg.norm(axis))
-        cyl = Manifold.cylinder(length, h.radius, h.radius, 32)
-        # rotate z onto the hole's axis, then place it
-        z = axis / length
-        ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        x = np.cross(ref, z)
-        x /= np.linalg.norm(x)
-        y = np.cross(z, x)
-        m = np.eye(4)
-        m[:3, :3] = np.column_stack([x, y, z])
-        m[:3, 3] = start
-        cuts.append(cyl.transform(_affine(frame_to_link(blank, h.frame) @ m)))
+        # rings (cable grooves) get fine segments: their bottom is the pulley radius
+        n = 32 if h.inner_radius <= 0.0 else 128
+        cut = _cylinder(h.start, h.end, h.radius, n)
+        if h.inner_radius > 0.0:
+            length = float(np.linalg.norm(np.subtract(h.end, h.start)))
+            # the inner cylinder is circumscribed: the groove bottom is never inside its radius
+            inner = h.inner_radius / math.cos(math.pi / n)
+            grown = np.subtract(h.end, h.start) / length
+            cut = cut - _cylinder(np.subtract(h.start, grown), np.add(h.end, grown), inner, n)
+        cuts.append(cut.transform(_affine(frame_to_link(blank, h.frame))))
+    for ch in blank.channels:
+        # circumscribed: the corridor holds a cable of the full radius everywhere; each run
+        # 0.05 mm longer at both ends, so that consecutive segments (on l3) overlap instead
+        # of meeting face to face (coincident faces leave edges STL readers cannot close)
+        cyls = [
+            _cylinder(*_lengthened(a, b, 0.05), ch.radius / math.cos(math.pi / 24), 24)
+            for a, b in ch.runs
+        ]
+        # runs come in groups per cable (the run, its copies pushed out): hull neighbours
+        n = ch.per_cable
+        cuts += [
+            Manifold.batch_hull(cyls[i : i + 2 * n]) for i in range(0, max(len(cyls) - n, 1), n)
+        ]
     return Manifold.batch_boolean(cuts, OpType.Add)
 
 
@@ -192,7 +227,10 @@ def carve(
     if not 0.0 < resolution_deg <= 10.0:
         raise ValueError(f"resolution_deg: expected 0 < r <= 10 degrees, got {resolution_deg}")
     step = math.radians(resolution_deg)
-    grow = design.clearance * MM
+    # grown by a hair more than the clearance, and shifted by less than that hair: faces of
+    # a cut that would fall exactly on a blank's edge (touching, not crossing) fall beside
+    # it, which keeps every carved mesh closed once written as float32 STL
+    grow = design.clearance * MM + 2 * _JITTER_MM
     tick = progress or (lambda label: None)
     blanks = [link_blank(design, k) for k in range(7)]
     solids = [_blank_solid(b) for b in blanks]
@@ -210,9 +248,14 @@ def carve(
     links = []
     for k in range(7):
         cuts = [c for c in (cut_prox[k], cut_dist[k]) if c is not None]
-        solid = solids[k] - Manifold.batch_boolean(cuts, OpType.Add) if cuts else solids[k]
-        # drop the zero-area slivers booleans leave, so that STL readers see a closed mesh
-        links.append(CarvedLink(blanks[k], solid.simplify(1e-6)))
+        if cuts:
+            cut = Manifold.batch_boolean(cuts, OpType.Add).translate(_JITTER)
+            solid = solids[k] - cut
+        else:
+            solid = solids[k]
+        # drop the slivers booleans leave, down to 0.1 um (more than float32 resolves at
+        # these sizes), so that STL readers see a closed mesh
+        links.append(CarvedLink(blanks[k], solid.simplify(1e-4)))
         tick(f"link l{k} carved")
     joints = []
     for j in range(1, 7):

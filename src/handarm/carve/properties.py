@@ -58,3 +58,42 @@ def link_properties(link: CarvedLink, density: float) -> dict:
         "watertight": bool(mesh.is_volume),
         "bodies": len(link.solid.decompose()),
     }
+
+
+#: Two faces closer to parallel than this (degrees) bound a wall; a wider corner is an edge.
+WALL_ANGLE_DEG = 30.0
+
+
+def wall_thickness(
+    solid: Manifold, limit: float, spacing: float = 0.5, seed: int = 0
+) -> tuple[float, float]:
+    """Thinnest wall of a solid (mm) and the surface area (mm^2) where it is below ``limit``.
+
+    Points spread over the surface (about one per ``spacing`` mm squared, plus every face's
+    centre) each cast a ray inwards along the surface normal; the distance to where it
+    leaves the solid is the wall there, counted when the exit face is within
+    ``WALL_ANGLE_DEG`` of parallel to the start face: a plate, a rib or a knife edge sharper
+    than that, not the corner of a block (whose faces meet at 90 degrees).
+    """
+    mesh = to_trimesh(solid)
+    rng = np.random.default_rng(seed)
+    count = int(mesh.area / spacing**2)
+    pts, faces = trimesh.sample.sample_surface(mesh, count, seed=rng)
+    centres = mesh.triangles_center
+    pts = np.concatenate([pts, centres])
+    faces = np.concatenate([faces, np.arange(len(mesh.faces))])
+    normals = mesh.face_normals[faces]
+    origins = pts - normals * 1e-4
+    locs, rays, tris = mesh.ray.intersects_location(origins, -normals, multiple_hits=False)
+    if len(rays) == 0:
+        return float("inf"), 0.0
+    dist = np.linalg.norm(locs - pts[rays], axis=1)
+    # opposite faces only: the exit face must face away from the ray's start face
+    cos = np.einsum("ij,ij->i", mesh.face_normals[tris], normals[rays])
+    facing = cos < -np.cos(np.radians(WALL_ANGLE_DEG))
+    dist, rays = dist[facing], rays[facing]
+    if len(dist) == 0:
+        return float("inf"), 0.0
+    thin = rays[dist < limit]
+    per_point = mesh.area / max(len(pts), 1)
+    return float(dist.min()), float(len(np.unique(thin)) * per_point)

@@ -1,0 +1,88 @@
+"""Wall thickness and support area, checked on solids whose answer is known by hand."""
+
+import numpy as np
+import pytest
+from manifold3d import Manifold
+
+import handarm
+from handarm.cad_out.meshes import print_orientation, support_area
+from handarm.carve.carving import CarvedLink
+from handarm.carve.properties import to_trimesh, wall_thickness
+from handarm.links import link_blank
+
+
+def test_wall_of_a_plate_is_its_thickness():
+    plate = Manifold.cube([20.0, 10.0, 0.9])
+    wall, thin = wall_thickness(plate, 1.2)
+    assert wall == pytest.approx(0.9, abs=1e-6)
+    assert thin == pytest.approx(2 * (20 * 10 + 20 * 0.9 + 10 * 0.9), rel=0.2)
+    block = Manifold.cube([20.0, 10.0, 5.0])
+    assert wall_thickness(block, 1.2) == (pytest.approx(5.0, abs=1e-6), 0.0)
+
+
+def test_rib_on_a_block_is_found():
+    """A 0.6 mm rib standing on a 10 mm block: the rib is the thinnest wall."""
+    solid = Manifold.cube([10.0, 10.0, 10.0]) + Manifold.cube([0.6, 10.0, 4.0]).translate(
+        [4.7, 0.0, 10.0]
+    )
+    wall, thin = wall_thickness(solid, 1.2)
+    assert wall == pytest.approx(0.6, abs=1e-6)
+    assert thin > 2 * 10 * 4 * 0.8  # both faces of the rib, give or take the sampling
+
+
+def _l_shape() -> Manifold:
+    # a 10 x 10 x 10 block with a 20 x 10 x 2 shelf on top sticking out 10 mm along +x
+    return Manifold.cube([10.0, 10.0, 10.0]) + Manifold.cube([20.0, 10.0, 2.0]).translate(
+        [0.0, 0.0, 10.0]
+    )
+
+
+def test_support_area_of_a_shelf():
+    mesh = to_trimesh(_l_shape())
+    assert support_area(mesh, [0, 0, -1]) == pytest.approx(100.0)  # the shelf's underside
+    assert support_area(mesh, [0, 0, 1]) == pytest.approx(0.0)  # shelf on the bed
+    # turned so the shelf's end faces down: the block's side overhangs by 10 x 10
+    assert support_area(mesh, [1, 0, 0]) == pytest.approx(100.0)
+
+
+def test_print_orientation_picks_a_pose_without_supports():
+    blank = link_blank(handarm.ArmDesign(), 6)
+    down, area = print_orientation(CarvedLink(blank, _l_shape()))
+    assert area == pytest.approx(0.0)
+    mesh = to_trimesh(_l_shape())
+    assert support_area(mesh, down) == pytest.approx(0.0)
+    assert np.linalg.norm(down) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("tilt", [30.0, 60.0])
+def test_faces_within_45_degrees_of_down_need_support(tilt):
+    """A 20 x 10 x 4 box turned by `tilt` about y, nothing flat on the bed: its bottom
+    (20 x 10, normal `tilt` from down) needs support below 45 degrees, its end (4 x 10,
+    normal 90 - `tilt` from down) otherwise."""
+    box = Manifold.cube([20.0, 10.0, 4.0]).rotate([0.0, tilt, 0.0])
+    expected = 200.0 if tilt < 45.0 else 40.0
+    assert support_area(to_trimesh(box), [0, 0, -1]) == pytest.approx(expected)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "changes",
+    [{}, {"link_lengths": (0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05)}, {"min_wall": 0.0019}],
+)
+def test_links_report_their_thinnest_wall_against_min_wall(changes):
+    """Every link reports a wall measured on its mesh; min_wall_met follows the design's
+    limit, and a stricter limit never turns a failing link into a passing one."""
+    from handarm.cad_out.carve_files import printing_report
+    from handarm.carve import carve
+
+    design = handarm.ArmDesign().replace(**changes)
+    result = carve(design, 2.0)
+    for link in result.links:
+        rep = printing_report(link, design.min_wall)
+        wall, _ = wall_thickness(link.solid, design.min_wall * 1e3)
+        assert rep["min_wall_m"] == pytest.approx(wall * 1e-3)
+        assert rep["min_wall_met"] == (wall * 1e-3 >= design.min_wall - 1e-12)
+        assert (rep["thin_area_mm2"] > 0) == (not rep["min_wall_met"])
+        strict = printing_report(link, design.min_wall + 0.001)
+        assert strict["min_wall_met"] <= rep["min_wall_met"]
+        assert strict["support_area_mm2"] == pytest.approx(rep["support_area_mm2"])

@@ -1,0 +1,140 @@
+"""Tendon paths on the carved links: grooves at the transmission's radius, idler room,
+cable lengths, and the clearance check."""
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+import handarm
+from handarm.carve import carve
+from handarm.carve.carving import _in_joint_frame
+from handarm.carve.properties import to_trimesh
+from handarm.links import joint_geometry
+from handarm.tendons import cable_lengths, cut_lengths, tendon_report
+from handarm.transmission import coupling_matrix
+
+OTHER = handarm.ArmDesign(
+    name="other",
+    link_lengths=(0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05),
+    joint_pulley_radii=(0.0085, 0.008, 0.0075, 0.008, 0.007, 0.0075),
+)
+
+
+@pytest.fixture(scope="module", params=["default", "other"])
+def carved(request):
+    design = handarm.ArmDesign() if request.param == "default" else OTHER
+    return carve(design)
+
+
+def _first_hit(solid, origin, direction) -> float:
+    mesh = to_trimesh(solid)
+    locs, _, _ = mesh.ray.intersects_location([origin], [direction], multiple_hits=True)
+    assert len(locs), (origin, direction)
+    return float(np.min(np.linalg.norm(locs - np.asarray(origin), axis=1)))
+
+
+def test_groove_radius_on_the_mesh_is_the_transmission_radius(carved):
+    """Cable centre on the carved groove's bottom = K's pulley radius (from K, not links)."""
+    design = carved.design
+    k = coupling_matrix(design)
+    cable_r = design.cable_diameter * 1e3 / 2
+    for j in range(1, 7):
+        tongue = carved.links[j].solid  # link j's frame is joint j's frame
+        lane = joint_geometry(design, j).slot_z(0, 1)
+        for angle in (150.0, 180.0, 210.0):  # behind the tongue, away from the beam
+            d = np.array([math.cos(math.radians(angle)), math.sin(math.radians(angle)), 0.0])
+            origin = 40.0 * d + [0.0, 0.0, lane]
+            bottom = 40.0 - _first_hit(tongue, origin, -d)
+            radius_from_k = abs(k[j - 1, j - 1]) * design.motor_pulley_radius * 1e3
+            assert bottom + cable_r == pytest.approx(radius_from_k, abs=0.01), (j, angle)
+
+
+def test_every_fork_holds_the_idlers_its_joint_needs(carved):
+    """Whole idlers between the tongue's face and the far cheek, measured on the meshes."""
+    design = carved.design
+    w = design.idler_width * 1e3
+    c = design.clearance * 1e3
+    for j in range(1, 7):
+        prox = _in_joint_frame(carved.links[j - 1], "dist")
+        dist = _in_joint_frame(carved.links[j], "prox")
+        start = np.array([-1.0, 4.0, 0.0])  # in the gap, off the bore and the anchors
+        up = np.array([0.0, 0.0, 1.0])
+        cheek = _first_hit(prox, start, up)
+        tongue_top = _first_hit(dist, start + [0, 0, 30.0], -up)
+        # the idler stack shares the clearance: c / 2 at the tongue, c / 2 at the cheek
+        room = cheek - (30.0 - tongue_top) - c
+        assert math.floor(room / w + 1e-4) >= 6 - j, (j, room)  # meshes are float32
+
+
+def test_driving_pulley_length_change_is_the_arc():
+    """Cable 1 wraps only joint 1: its change is r1 times the joint's travel."""
+    d = handarm.ArmDesign()
+    (lo, hi) = d.joint_limits[0]
+    r1 = d.joint_pulley_radii[0]
+    change = cable_lengths(d)[0].change
+    assert change == pytest.approx((-r1 * hi, -r1 * lo))
+
+
+def test_lengths_grow_with_the_links():
+    base = cable_lengths(handarm.ArmDesign())
+    longer = cable_lengths(handarm.ArmDesign(link_lengths=(0.05, 0.06) + (0.05,) * 5))
+    for c in range(1, 6):  # cables 2..6 run along l1
+        assert longer[c].side_plus == pytest.approx(base[c].side_plus + 0.01, abs=2e-4)
+    assert longer[0].side_plus == pytest.approx(base[0].side_plus)
+
+
+def test_cut_lengths_check_their_arguments():
+    d = handarm.ArmDesign()
+    cuts = cut_lengths(d)
+    assert len(cuts) == 6 and all(a < b for a, b in zip(cuts, cuts[1:], strict=False))
+    with pytest.raises(ValueError, match="motor_run"):
+        cut_lengths(d, motor_run=-1.0)
+    with pytest.raises(ValueError, match="motor_run"):
+        cut_lengths(d, motor_run=(0.1, 0.1))
+    with pytest.raises(ValueError, match="motor_turns"):
+        cut_lengths(d, motor_turns=-1)
+
+
+@pytest.mark.slow
+def test_cables_run_clear_at_moderate_poses(carved):
+    """q = 0 and every joint at +-60 degrees (one at a time and all together)."""
+    poses = [np.zeros(6), np.full(6, math.radians(60)), np.full(6, -math.radians(60))]
+    for j in range(6):
+        for v in (-60.0, 60.0):
+            q = np.zeros(6)
+            q[j] = math.radians(v)
+            poses.append(q)
+    report = tendon_report(carved.design, carved, poses=poses)
+    assert report["clear"], report["contacts"][:3]
+    assert report["poses"] == len(poses)
+
+
+@pytest.mark.slow
+def test_check_finds_a_cable_pinched_in_a_fold():
+    """Joint 2 folded to -150 degrees: l2 closes on l1's side where the cables run; the
+    contact the check reports is real (the placed meshes overlap a cylinder round the run)."""
+    d = handarm.ArmDesign()
+    result = carve(d)
+    q = np.zeros(6)
+    q[1] = math.radians(-150)
+    report = tendon_report(d, result, poses=[q])
+    assert not report["clear"]
+    hit = report["contacts"][0]
+    assert {hit["run_on"], hit["meets"]} <= {"l1", "l2"}
+    # independent: the run's points, placed, lie inside the other link's placed mesh
+    from handarm.links import strands_in_link
+
+    frames = handarm.joint_frames(d, q)
+    k, other = int(hit["run_on"][1]), int(hit["meets"][1])
+    mesh = to_trimesh(result.links[other].solid)
+    to_other = np.linalg.inv(frames[other - 1]) if other else np.eye(4)
+    place = frames[k - 1] if k else np.eye(4)
+    st = [s for s in strands_in_link(d, k) if s.cable == hit["cable"] and s.side == hit["side"]]
+    pts = np.concatenate([np.linspace(s.start, s.end, 400) for s in st])  # mm in link k
+    world = pts @ place[:3, :3].T + place[:3, 3] * 1e3
+    local = world @ to_other[:3, :3].T + to_other[:3, 3] * 1e3
+    near = trimesh.proximity.signed_distance(mesh, local)
+    rc = d.cable_diameter * 1e3 / 2 + d.clearance * 1e3
+    assert np.max(near) > -rc  # some point of the run is within the cable's radius
