@@ -171,3 +171,18 @@ def test_partial_toml_takes_defaults(tmp_path):
 def test_public_api_is_explicit():
     for name in handarm.__all__:
         assert hasattr(handarm, name)
+
+
+def test_every_numeric_field_has_bounds():
+    """A field added without bounds would load unchecked (or fail with a KeyError)."""
+    import dataclasses
+
+    from handarm.design import FIELD_BOUNDS
+
+    numeric = {
+        f.name
+        for f in dataclasses.fields(handarm.ArmDesign)
+        if isinstance(getattr(handarm.ArmDesign(), f.name), (float, tuple))
+        and f.name not in ("joint_limits", "routing_signs", "servo_ids")
+    }
+    assert numeric <= set(FIELD_BOUNDS), numeric - set(FIELD_BOUNDS)

@@ -52,6 +52,7 @@ FIELD_BOUNDS: dict[str, tuple[float, float]] = {
     "joint_pulley_radii": (0.001, 0.1),
     "motor_pulley_radius": (0.001, 0.1),
     "density": (100.0, 20000.0),  # kg/m^3: foams to tungsten-filled filament
+    "min_wall": (0.0004, 0.005),  # m: one line of a 0.4 mm nozzle to a solid 5 mm
 }
 
 #: Smallest wall around an axle bore that carving keeps (m).
