@@ -47,9 +47,7 @@ BROADCAST = 0xFE
 ERR_ANGLE, ERR_RANGE, ERR_CHECKSUM, ERR_INSTRUCTION = 0x02, 0x08, 0x10, 0x40
 ERR_OVERHEAT, ERR_OVERLOAD = 0x04, 0x20
 _REGISTER_BAUD = {v: k for k, v in BAUD_VALUES.items()}
-_TERMIOS_BAUD = {
-    getattr(termios, f"B{b}"): b for b in BAUD_VALUES if hasattr(termios, f"B{b}")
-}
+_TERMIOS_BAUD = {getattr(termios, f"B{b}"): b for b in BAUD_VALUES if hasattr(termios, f"B{b}")}
 _TABLE_SIZE = 74
 _READ_ONLY = set(range(0, 3)) | set(range(36, 47)) | {50, 51}
 

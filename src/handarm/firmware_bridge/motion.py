@@ -165,9 +165,7 @@ def plan_path(
         bounds.setHigh(k, float(design.upper[k]))
     space.setBounds(bounds)
     ss = og.SimpleSetup(space)
-    ss.setStateValidityChecker(
-        lambda s: bool(is_valid(design, np.array([s[k] for k in range(6)])))
-    )
+    ss.setStateValidityChecker(lambda s: bool(is_valid(design, np.array([s[k] for k in range(6)]))))
     extent = space.getMaximumExtent()
     ss.getSpaceInformation().setStateValidityCheckingResolution(math.radians(0.5) / extent)
     a, b = space.allocState(), space.allocState()
@@ -178,8 +176,7 @@ def plan_path(
     solved = ss.solve(float(timeout))
     if not solved or not ss.haveExactSolutionPath():
         raise PlanningError(
-            f"goal: no collision-free path from the present pose in {timeout:g} s; "
-            "nothing was sent"
+            f"goal: no collision-free path from the present pose in {timeout:g} s; nothing was sent"
         )
     ss.simplifySolution()
     path = ss.getSolutionPath()
@@ -197,9 +194,7 @@ def plan_path(
     return np.stack(out)
 
 
-def time_path(
-    design: ArmDesign, waypoints, limits: MotionLimits, rate: float
-) -> np.ndarray:
+def time_path(design: ArmDesign, waypoints, limits: MotionLimits, rate: float) -> np.ndarray:
     """Sample a waypoint path at ``rate`` Hz, timed with ruckig, shape (n, 6) rad.
 
     Each edge is a straight joint-space line run rest to rest: the path parameter is
@@ -215,7 +210,9 @@ def time_path(
     try:
         from ruckig import InputParameter, Result, Ruckig, Trajectory
     except ImportError:  # pragma: no cover - the test extra installs it
-        raise PlanningError("timing: ruckig is not installed (pip install 'handarm[bridge]')")
+        raise PlanningError(
+            "timing: ruckig is not installed (pip install 'handarm[bridge]')"
+        ) from None
     if not (math.isfinite(rate) and rate > 0):
         raise ValueError(f"rate: expected a positive number of Hz, got {rate}")
     waypoints = np.asarray(waypoints, float)
