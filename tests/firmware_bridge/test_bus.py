@@ -23,7 +23,10 @@ def writes(emu):
 
 
 def test_apply_writes_and_verifies(design):
-    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus:
+    with (
+        EmulatedBus(positions=START) as emu,
+        B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus,
+    ):
         cal = B.record_calibration(bus, design)
         settings = B.apply_settings(bus, design, cal)
         for sid, regs in settings.items():
@@ -52,7 +55,10 @@ def test_faults_abort_before_anything_is_written(design, faults, message):
 
 
 def test_calibrate_read_goto(design, rng):
-    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus:
+    with (
+        EmulatedBus(positions=START) as emu,
+        B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus,
+    ):
         cal = B.record_calibration(bus, design)
         assert cal.offsets == tuple(START[i] for i in range(1, 7))
         B.apply_settings(bus, design, cal)
@@ -95,7 +101,10 @@ def test_calibrate_read_goto(design, rng):
     ],
 )
 def test_goto_refuses_and_sends_nothing(design, q_deg, message):
-    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus:
+    with (
+        EmulatedBus(positions=START) as emu,
+        B.ServoBus(emu.port, design.baud_rate, TIMEOUT) as bus,
+    ):
         cal = B.record_calibration(bus, design)
         with pytest.raises(ValueError, match=message):
             B.goto(bus, design, cal, np.radians(q_deg))

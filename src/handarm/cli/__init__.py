@@ -1,7 +1,10 @@
 """The ``handarm`` command: argument parsing only; every action is a library call.
 
 A user mistake (missing file, bad TOML, bad value) prints one line and exits with status 2;
-a refusal by the servo bus or a solver exits with 3; Ctrl-C exits with 130.
+a refusal by a solver or the motion planner exits with 3; an arm or servo state the bridge
+will not move from (unknown pose, servo settings that differ, a servo fault) with 4; a bus
+failure (port lost, servo silent, duplicate ID) with 5; Ctrl-C exits with 130 (a moving
+arm is stopped holding its pose first).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ __all__ = ["main", "make_parser", "UsageError"]
 _RUNTIME_OPTIONS = {"port": "--port", "baud": "--baud", "scheduler": "--scheduler"}
 
 EXIT_OK, EXIT_NO_SOLUTION, EXIT_USAGE, EXIT_REFUSED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_ARM_STATE, EXIT_BUS = 4, 5  # the ``exit_status`` of the bridge's errors
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -44,10 +48,11 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, ValueError, OSError) as exc:
         print(f"handarm {name}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    except RuntimeError as exc:  # the servo bus (BusError) or a solver said no
+    except RuntimeError as exc:  # a solver, the planner, the arm's state or the bus said no
+        status = getattr(exc, "exit_status", EXIT_REFUSED)
         exc = option_error(exc, _RUNTIME_OPTIONS)
         print(f"handarm {name}: error: {exc}", file=sys.stderr)
-        return EXIT_REFUSED
+        return status
     except KeyboardInterrupt:
         print(f"handarm {name}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

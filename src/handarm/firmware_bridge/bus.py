@@ -61,6 +61,9 @@ __all__ = [
     "goal_ticks",
     "plan_move",
     "stream",
+    "send_sample",
+    "check_health",
+    "ServoFault",
     "goto",
     "hold",
     "set_torque",
@@ -91,6 +94,10 @@ class BusError(RuntimeError):
     """The bus or a servo did not answer as asked (message says which servo and why)."""
 
     exit_status = 5
+
+
+class DuplicateIdError(BusError):
+    """Two servos answered to one ID."""
 
 
 class ArmStateError(RuntimeError):
@@ -155,7 +162,7 @@ class ServoBus:
     def _io(self, what: str, call, *args):
         try:
             return call(*args)
-        except (OSError, ValueError, TypeError, AttributeError) as exc:
+        except (OSError, ValueError, TypeError, AttributeError, IndexError) as exc:
             # pyserial's SerialException is an OSError; a closed port raises the others
             self.port.is_using = False
             raise BusError(f"port: {self.port_name} lost during {what}: {exc}") from None
@@ -168,11 +175,20 @@ class ServoBus:
         if error & ~STOP_BITS:
             raise BusError(f"servo {sid}: {what}: {error_text(error)}")
 
-    def ping(self, sid: int) -> int:
-        """Model number of servo ``sid``; BusError if it does not answer."""
-        model, comm, error = self._io("ping", self.packet.ping, self.port, sid)
+    def ping(self, sid: int) -> int | None:
+        """Model number of servo ``sid``; BusError if it does not answer.
+
+        None when the servo answers PING but not READ (Status Return Level 0).
+        """
+        packet = [0xFF, 0xFF, sid, 2, 0x01, 0]  # PING
+        _, comm, error = self._io("ping", self.packet.txRxPacket, self.port, packet)
         self._check(sid, "ping", comm, error & ~STOP_BITS)
-        return int(model)
+        if self.echoes():
+            raise DuplicateIdError(f"servo {sid}: two servos answer as ID {sid} (duplicate ID)")
+        value, comm, error = self._io("ping", self.packet.read2ByteTxRx, self.port, sid, 0)
+        from dynamixel_sdk import COMM_SUCCESS
+
+        return int(value) if comm == COMM_SUCCESS else None
 
     def echoes(self, wait: float = 0.004) -> bool:
         """Whether more bytes arrived after the last status packet (two servos, one ID)."""
@@ -236,6 +252,9 @@ def error_text(error: int) -> str:
 def check_servos(bus: ServoBus, design: ArmDesign) -> list[int]:
     """Ping every servo of the design, check its model and that no other servo shares its ID.
 
+    A servo at Status Return Level 0 answers PING only; its model is checked once
+    ``apply`` has raised the level (and ``check_state`` refuses it until then).
+
     Raises
     ------
     BusError
@@ -250,8 +269,8 @@ def check_servos(bus: ServoBus, design: ArmDesign) -> list[int]:
             problems.append(f"joint {joint}: {exc}")
             continue
         models.append(model)
-        if bus.echoes():
-            problems.append(f"joint {joint}: two servos answer as ID {sid} (duplicate ID)")
+        if model is None:
+            pass  # Status Return Level 0: answers PING only; apply raises it
         elif model == MODEL_NUMBER_MX2:
             problems.append(
                 f"joint {joint}: servo {sid} reports model {model}, the MX(2.0) "
@@ -342,6 +361,9 @@ def apply_settings(
                     levels[sid] = 2
                     if bus.read(sid, name) != 2:
                         raise BusError(f"servo {sid}: status_return_level did not take 2")
+                    model = bus.read(sid, "model_number")
+                    if model != design.servo.model_number:
+                        raise BusError(f"servo {sid}: reports model {model} once it answers")
     except BusError as exc:
         raise BusError(
             f"{exc}; written before the failure: {', '.join(written) or 'nothing'}"
@@ -594,6 +616,29 @@ def set_torque(bus: ServoBus, design: ArmDesign, on: bool) -> None:
         bus.write(sid, "torque_enable", 1 if on else 0)
 
 
+def send_sample(
+    bus: ServoBus, design: ArmDesign, calibration: Calibration, q, prev_q, dt: float
+) -> None:
+    """One SYNC_WRITE of Goal Position and Moving Speed for joint angles ``q`` (rad).
+
+    Moving Speed is set so that each servo covers its step from ``prev_q`` in ``dt`` (never
+    0, which the servo reads as "no speed control"). ``goal_ticks`` checks ``q`` first.
+    """
+    ticks = goal_ticks(design, calibration, q)
+    dphi = motor_from_joint(design, q) - motor_from_joint(design, prev_q)
+    speed = _speed_registers(design, dphi, dt)
+    values = list(zip(ticks, speed, strict=True))
+    bus.sync_write("goal_position", design.servo_ids, values, size=4)
+
+
+def check_health(bus: ServoBus, design: ArmDesign, i: int, torque_limit: int) -> dict:
+    """Read servo ``i mod 6``'s load, voltage, temperature and error bits; ServoFault if bad."""
+    sid = design.servo_ids[i % 6]
+    state = monitor(bus, design, sid)
+    _check_health(design, sid, state, torque_limit)
+    return state
+
+
 def stream(
     bus: ServoBus,
     design: ArmDesign,
@@ -602,13 +647,12 @@ def stream(
     rate: float,
     *,
     torque_limit: int | None = None,
-    on_sample=None,
 ) -> int:
     """Send joint samples as Goal Position and Moving Speed at ``rate`` Hz.
 
-    Each period sends one SYNC_WRITE (Goal Position and Moving Speed of all six servos)
-    and reads one servo's load, voltage, temperature and error bits, in turn. A fault or
-    Ctrl-C stops the arm where it is (``hold``) and re-raises.
+    Each period sends one SYNC_WRITE (``send_sample``) and reads one servo's load,
+    voltage, temperature and error bits, in turn (``check_health``). A fault or Ctrl-C
+    stops the arm where it is (``hold``) and re-raises.
 
     Returns
     -------
@@ -618,22 +662,13 @@ def stream(
     samples = np.asarray(samples, float)
     dt = 1.0 / rate
     limit = design.servo.max_torque_register if torque_limit is None else torque_limit
-    ids = design.servo_ids
-    prev = motor_from_joint(design, samples[0])
     sent = 0
     t0 = time.perf_counter()
     try:
         for i, q in enumerate(samples):
-            ticks = goal_ticks(design, calibration, q)
-            phi = motor_from_joint(design, q)
-            speed = _speed_registers(design, phi - prev, dt)
-            prev = phi
-            bus.sync_write("goal_position", ids, list(zip(ticks, speed, strict=True)), size=4)
+            send_sample(bus, design, calibration, q, samples[max(i - 1, 0)], dt)
             sent += 1
-            if on_sample is not None:
-                on_sample(q)
-            sid = ids[i % 6]
-            _check_health(design, sid, monitor(bus, design, sid), limit)
+            check_health(bus, design, i, limit)
             delay = t0 + (i + 1) * dt - time.perf_counter()
             if delay > 0:
                 time.sleep(delay)
@@ -708,13 +743,15 @@ def scan(port: str, bauds=None, ids=range(254), timeout: float | None = None) ->
         baud_register(baud)
         with ServoBus(port, baud, timeout) as bus:
             for sid in ids:
+                duplicate = False
                 try:
                     model = bus.ping(sid)
+                except DuplicateIdError:
+                    model, duplicate = None, True
                 except BusError:
                     continue
-                duplicate = bus.echoes()
                 try:
-                    firmware = bus.read(sid, "firmware_version")
+                    firmware = None if duplicate else bus.read(sid, "firmware_version")
                 except BusError:
                     firmware = None
                 found.append(
@@ -770,10 +807,14 @@ def setup_servo(
             f"{servo.model_number}. Nothing was written"
         )
     with ServoBus(port, f["baud"], timeout) as bus:
+        # the status packets of these writes come from the new ID / at the new rate:
+        # send without waiting, then read everything back below
         if f["id"] != target_id:
-            bus.write(f["id"], "id", target_id)
+            bus.write(f["id"], "id", target_id, status=False)
+            time.sleep(0.05)
         if f["baud"] != target_baud:
-            bus.write(target_id, "baud_rate", target_reg)
+            bus.write(target_id, "baud_rate", target_reg, status=False)
+            time.sleep(0.05)
     with ServoBus(port, target_baud, timeout) as bus:
         model = bus.ping(target_id)
         got_id, got_baud = bus.read(target_id, "id"), bus.read(target_id, "baud_rate")
