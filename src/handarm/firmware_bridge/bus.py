@@ -12,6 +12,7 @@ positions and speeds go in one SYNC_WRITE per period.
 
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -24,6 +25,7 @@ from handarm.firmware_bridge.motion import (
     MotionLimits,
     PlanningError,
     plan_path,
+    serial_checks,
     time_path,
 )
 from handarm.firmware_bridge.mx64 import (
@@ -676,6 +678,20 @@ def stream(
         hold(bus, design)
         raise
     return sent
+
+
+def _serial(fn):
+    """Run ``fn`` with the collision kernels on one thread (see ``serial_checks``)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with serial_checks():
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
+stream = _serial(stream)
 
 
 def goto(

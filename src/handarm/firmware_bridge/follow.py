@@ -42,7 +42,12 @@ from handarm.firmware_bridge.bus import (
     set_torque,
 )
 from handarm.firmware_bridge.calibration import Calibration
-from handarm.firmware_bridge.motion import MotionLimits, check_step, segment_valid
+from handarm.firmware_bridge.motion import (
+    MotionLimits,
+    check_step,
+    segment_valid,
+    serial_checks,
+)
 
 __all__ = ["parse_target", "TargetSource", "open_source", "follow_step", "follow"]
 
@@ -117,11 +122,12 @@ class TargetSource:
 
     def poll(self):
         """``(arrival, line number, line)`` for this period, or None."""
-        if self.paced:
+        if self.paced:  # a recorded stream: each line arrives when its period starts
             try:
-                return self.queue.get_nowait()
+                _, n, line = self.queue.get_nowait()
             except queue.Empty:
                 return None
+            return time.perf_counter(), n, line
         item = None
         while True:
             try:
@@ -214,6 +220,23 @@ def follow(
         its command on the bus: median, 95th percentile, max), ``period_ms`` (same), and
         ``q`` (last command, rad).
     """
+    with serial_checks():
+        return _follow(
+            bus,
+            design,
+            calibration,
+            source,
+            rate,
+            limits,
+            max_torque_fraction,
+            max_periods,
+            on_period,
+        )
+
+
+def _follow(
+    bus, design, calibration, source, rate, limits, max_torque_fraction, max_periods, on_period
+) -> dict:
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
     q_cmd = check_state(bus, design, calibration, max_torque_fraction)

@@ -16,6 +16,8 @@ valid sample, still apart (the collision model already keeps them a clearance ap
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import math
 
 import numpy as np
@@ -25,6 +27,7 @@ from handarm.kinematics import is_valid
 from handarm.transmission import coupling_matrix
 
 __all__ = [
+    "serial_checks",
     "PlanningError",
     "MotionLimits",
     "check_step",
@@ -62,6 +65,24 @@ class MotionLimits:
         self.acceleration = float(acceleration)
 
 
+@contextlib.contextmanager
+def serial_checks():
+    """Run the collision kernels on this thread only while inside the block.
+
+    The bridge checks a few poses at a time; waking numba's worker threads for each call
+    costs tens of milliseconds on a busy machine, far more than the check itself.
+    """
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
+@functools.lru_cache(maxsize=8)
 def lever_arm(design: ArmDesign) -> float:
     """Upper bound on the distance from any joint axis to any envelope point (m)."""
     from handarm.collision import envelopes
@@ -173,7 +194,8 @@ def plan_path(
         a[k], b[k] = float(start[k]), float(goal[k])
     ss.setStartAndGoalStates(a, b)
     ss.setPlanner(og.RRTConnect(ss.getSpaceInformation()))
-    solved = ss.solve(float(timeout))
+    with serial_checks():
+        solved = ss.solve(float(timeout))
     if not solved or not ss.haveExactSolutionPath():
         raise PlanningError(
             f"goal: no collision-free path from the present pose in {timeout:g} s; nothing was sent"
