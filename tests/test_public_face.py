@@ -83,9 +83,7 @@ def test_one_servo_specification_everywhere(design):
     assert {s["max_torque"] for s in config["servos"]} == {spec.max_torque_register}
     k = handarm.transmission.coupling_matrix(design)
     np.testing.assert_allclose(joint_effort_limits(design), np.abs(k).sum(0) * spec.stall_torque)
-    np.testing.assert_allclose(
-        joint_velocity_limits(design), spec.no_load_speed / np.abs(k).max(0)
-    )
+    np.testing.assert_allclose(joint_velocity_limits(design), spec.no_load_speed / np.abs(k).max(0))
     assert motor_ranges(design)[0].ticks_per_radian == spec.ticks_per_radian
 
 

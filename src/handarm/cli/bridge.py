@@ -38,7 +38,7 @@ def _achieved_limits(path):
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Write controller.json, arm_config.h and a ros2_control fragment."""
+    """Write controller.json and arm_config.h."""
     from handarm.pipeline import export_controller
 
     design = load_design(args.design)
@@ -325,8 +325,8 @@ def register(sub) -> None:
     bsub.required = True
     p = bsub.add_parser(
         "export",
-        help="controller.json, arm_config.h, ros2_control.xml",
-        description="Write controller.json, arm_config.h and a ros2_control fragment.",
+        help="controller.json, arm_config.h",
+        description="Write controller.json and arm_config.h (no ros2_control: see the guide).",
     )
     add_design_arg(p)
     p.add_argument("--out", default="build/controller", help="output folder")

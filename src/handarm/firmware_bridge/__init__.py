@@ -1,6 +1,6 @@
 """Servo-controller export, calibration and the Dynamixel Protocol 1.0 bus for MX-64T servos.
 
-Modules (loaded on first use): ``export`` (controller.json, arm_config.h, ros2_control),
+Modules (loaded on first use): ``export`` (controller.json, arm_config.h),
 ``calibration``, ``bus`` (the live bus through dynamixel_sdk: checks, apply, goto, stop),
 ``motion`` (collision-free paths with OMPL, timing with ruckig), ``follow`` (the handheld
 follow loop), ``emulator`` (a software bus on a pseudo-terminal), ``mx64`` (the control
