@@ -257,7 +257,8 @@ def time_path(design: ArmDesign, waypoints, limits: MotionLimits, rate: float) -
         if result != Result.Working:
             raise PlanningError(f"timing: ruckig could not time an edge ({result})")
         n = max(1, math.ceil(traj.duration / dt))
-        for i in range(1, n + 1):
-            s = 1.0 if i == n else min(1.0, traj.at_time(i * dt)[0][0])
+        for i in range(1, n):
+            s = min(1.0, traj.at_time(i * dt)[0][0])
             out.append(qa + s * (qb - qa))
+        out.append(qb.copy())  # exactly the waypoint (and the goal at the end)
     return np.stack(out)
