@@ -236,7 +236,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
         )
     if not found:
         print("no servo answered")
-    return 0 if found and not any(f["duplicate"] for f in found) else 4
+        return 5  # as a bus failure: check power, wiring and --port
+    return 4 if any(f["duplicate"] for f in found) else 0
 
 
 def cmd_setup(args: argparse.Namespace) -> int:
