@@ -30,6 +30,7 @@ from handarm.firmware_bridge.mx64 import (
     TICKS_PER_REV,
     from_unsigned16,
 )
+from handarm.servo import SERVOS
 
 __all__ = ["EmulatedServo", "EmulatedBus"]
 
@@ -46,6 +47,7 @@ PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC_WRITE, BULK_READ = (
 BROADCAST = 0xFE
 ERR_ANGLE, ERR_RANGE, ERR_CHECKSUM, ERR_INSTRUCTION = 0x02, 0x08, 0x10, 0x40
 ERR_OVERHEAT, ERR_OVERLOAD = 0x04, 0x20
+_SPEC = SERVOS["MX-64T"]  # factory defaults come from the one servo specification
 _REGISTER_BAUD = {v: k for k, v in BAUD_VALUES.items()}
 _TERMIOS_BAUD = {getattr(termios, f"B{b}"): b for b in BAUD_VALUES if hasattr(termios, f"B{b}")}
 _TABLE_SIZE = 74
@@ -72,16 +74,16 @@ class EmulatedServo:
             "return_delay_time": 250,
             "cw_angle_limit": 0,
             "ccw_angle_limit": 4095,
-            "temperature_limit": 80,
+            "temperature_limit": _SPEC.temperature_limit,
             "min_voltage_limit": 60,
             "max_voltage_limit": 240,
-            "max_torque": 1023,
+            "max_torque": _SPEC.max_torque_register,
             "status_return_level": 2,
             "alarm_led": 36,
             "shutdown": 36,
             "resolution_divider": 1,
             "goal_position": position,
-            "torque_limit": 1023,
+            "torque_limit": _SPEC.max_torque_register,
             "present_position": position,
             "present_voltage": 120,
             "present_temperature": 35,
