@@ -27,7 +27,6 @@ from handarm.firmware_bridge.export import (
     controller_config,
     write_controller_json,
     write_header,
-    write_ros2_control,
 )
 from handarm.summary import design_summary
 from handarm.workspace.report import write_workspace_outputs
@@ -128,7 +127,7 @@ def export_controller(
     achieved_limits: Sequence[tuple[float, float]] | None = None,
     max_torque_fraction: float = 1.0,
 ) -> list[Path]:
-    """Write ``controller.json``, ``arm_config.h`` and ``ros2_control.xml`` into ``out``.
+    """Write ``controller.json`` and ``arm_config.h`` into ``out``.
 
     Parameters
     ----------
@@ -152,7 +151,6 @@ def export_controller(
     return [
         write_controller_json(config, out / "controller.json"),
         write_header(config, out / "arm_config.h"),
-        write_ros2_control(config, out / "ros2_control.xml"),
     ]
 
 

@@ -38,7 +38,18 @@ class ServoSpec:
     multi_turn_limit : int
         Largest |Goal Position| in multi-turn mode.
     max_torque_register : int
-        Largest value of the Max Torque and Torque Limit registers.
+        Largest value of the Max Torque and Torque Limit registers (also the full scale of
+        Present Load).
+    speed_unit_rpm : float
+        Moving Speed register unit (rpm per unit); 0 means "no speed control".
+    max_speed_register : int
+        Largest Moving Speed value in joint and multi-turn mode.
+    temperature_limit : int
+        Factory Temperature Limit (deg C); the bridge stops a move at this temperature.
+    factory_id : int
+        ID of a servo as shipped.
+    factory_baud : int
+        Bit rate of a servo as shipped (bit/s).
     stall_torque : float
         Stall torque at ``voltage`` (N m).
     no_load_speed : float
@@ -75,6 +86,11 @@ class ServoSpec:
     joint_mode_max: int
     multi_turn_limit: int
     max_torque_register: int
+    speed_unit_rpm: float
+    max_speed_register: int
+    temperature_limit: int
+    factory_id: int
+    factory_baud: int
     stall_torque: float
     no_load_speed: float
     voltage: float
@@ -102,6 +118,11 @@ _MX64 = dict(
     joint_mode_max=4095,
     multi_turn_limit=28672,
     max_torque_register=1023,
+    speed_unit_rpm=0.114,
+    max_speed_register=1023,
+    temperature_limit=80,
+    factory_id=1,
+    factory_baud=57_600,
     stall_torque=6.0,  # N m at 12 V, 4.1 A
     no_load_speed=63.0 * 2.0 * math.pi / 60.0,  # 63 rpm at 12 V
     voltage=12.0,

@@ -5,6 +5,7 @@ import pytest
 from handarm.cli import main
 from handarm.firmware_bridge.emulator import WRITE, EmulatedBus
 
+TIMEOUT = 1000  # ms: on a loaded machine the emulator thread can answer late
 START = {1: 2000, 2: 100, 3: 3000, 4: 2048, 5: 4000, 6: 10}
 
 
@@ -43,9 +44,21 @@ def test_size_with_carved_link_masses(capsys):
 def test_live_bus_commands(tmp_path, capsys):
     with EmulatedBus(positions=START) as emu:
         cal = tmp_path / "cal.json"
-        code, out, err = run(capsys, "bridge", "calibrate", "--port", emu.port, "--out", cal)
+        code, out, err = run(
+            capsys, "bridge", "calibrate", "--port", emu.port, "--timeout", TIMEOUT, "--out", cal
+        )
         assert code == 0, err
-        code, out, err = run(capsys, "bridge", "apply", "--port", emu.port, "--calibration", cal)
+        code, out, err = run(
+            capsys,
+            "bridge",
+            "apply",
+            "--port",
+            emu.port,
+            "--timeout",
+            TIMEOUT,
+            "--calibration",
+            cal,
+        )
         assert code == 0, err
         assert out.count("(verified)") == 6
         code, out, err = run(
@@ -60,11 +73,15 @@ def test_live_bus_commands(tmp_path, capsys):
             "60",
             "--port",
             emu.port,
+            "--timeout",
+            TIMEOUT,
             "--calibration",
             cal,
         )
         assert code == 0, err
-        code, out, err = run(capsys, "bridge", "read", "--port", emu.port, "--calibration", cal)
+        code, out, err = run(
+            capsys, "bridge", "read", "--port", emu.port, "--timeout", TIMEOUT, "--calibration", cal
+        )
         assert code == 0, err
         angles = [float(v) for v in out.split()]
         assert angles == pytest.approx([10, -20, 30, 40, -50, 60], abs=0.1)
@@ -81,6 +98,8 @@ def test_live_bus_commands(tmp_path, capsys):
             "0",
             "--port",
             emu.port,
+            "--timeout",
+            TIMEOUT,
             "--calibration",
             cal,
         )
@@ -90,8 +109,8 @@ def test_live_bus_commands(tmp_path, capsys):
 
 def test_bus_faults_are_one_line(tmp_path, capsys):
     with EmulatedBus(silent=[4]) as emu:
-        code, out, err = run(capsys, "bridge", "apply", "--port", emu.port)
-        assert code == 3
+        code, out, err = run(capsys, "bridge", "apply", "--port", emu.port, "--timeout", 200)
+        assert code == 5  # a bus failure
         assert "handarm bridge apply: error: nothing was written: joint 4" in err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
         assert [e for e in emu.log if e[1] == WRITE] == []

@@ -1,7 +1,6 @@
 import json
 import math
 import subprocess
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -12,7 +11,6 @@ from handarm.firmware_bridge.export import (
     controller_config,
     write_controller_json,
     write_header,
-    write_ros2_control,
 )
 
 
@@ -71,17 +69,35 @@ def test_header_compiles_and_matches(tmp_path, design):
     assert "HANDARM_SERVO_ID[6] = {1, 2, 3, 4, 5, 6}" in (tmp_path / "arm_config.h").read_text()
 
 
-def test_ros2_control_fragment(tmp_path, design):
-    config = controller_config(design)
-    text = write_ros2_control(config, tmp_path / "r.xml").read_text()
-    root = ET.fromstring(text.split("-->\n", 1)[1])
-    params = {p.get("name"): p.text for p in root.find("hardware").findall("param")}
-    t2j = np.array([float(v) for v in params["transmission_to_joint_matrix"].split(",")])
-    j2t = np.array([float(v) for v in params["joint_to_transmission_matrix"].split(",")])
-    assert len(t2j) == len(j2t) == 36
-    np.testing.assert_allclose(t2j.reshape(6, 6) @ j2t.reshape(6, 6), np.eye(6), atol=1e-12)
-    assert [g.find("param[@name='ID']").text for g in root.findall("gpio")] == list("123456")
-    assert len(root.findall("joint")) == 6
+def test_design_name_cannot_escape_the_header_comment(tmp_path, design):
+    evil = design.replace(name="x */ int injected = 1; /* y")
+    config = controller_config(evil)
+    write_header(config, tmp_path / "arm_config.h")
+    (tmp_path / "use.c").write_text(
+        '#include "arm_config.h"\nint injected = 2;\nint f(void) { return injected; }\n'
+    )
+    result = subprocess.run(
+        ["cc", "-c", "-std=c99", "-Wall", "-Werror", "use.c", "-o", "use.o"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    # had the name closed the comment, 'injected' would be defined twice
+    assert result.returncode == 0, result.stderr
+    first = (tmp_path / "arm_config.h").read_text().splitlines()[0]
+    assert first.startswith("/*") and first.endswith("*/") and first.count("*/") == 1
+
+
+def test_no_ros2_control_output(tmp_path, design):
+    from handarm.pipeline import export_controller
+
+    paths = export_controller(design, tmp_path / "ctl")
+    assert sorted(p.name for p in paths) == ["arm_config.h", "controller.json"]
+    assert sorted(p.name for p in (tmp_path / "ctl").iterdir()) == [
+        "arm_config.h",
+        "controller.json",
+    ]
 
 
 def test_bad_export_arguments(design):
@@ -112,3 +128,9 @@ def test_calibration_round_trip_and_refusals(tmp_path, design):
         Calibration.load(path)
     with pytest.raises(FileNotFoundError, match="calibration file not found"):
         Calibration.load(tmp_path / "none.json")
+    data = cal.to_dict()
+    for bad in (1.5, "7", True, 2.0):
+        data["offsets"] = [bad, 2, 3, 4, 5, 6]
+        path.write_text(json.dumps(data))
+        with pytest.raises(ValueError, match="offsets\\[0\\]: expected an integer"):
+            Calibration.load(path)

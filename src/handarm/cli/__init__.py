@@ -2,17 +2,7 @@
 
 Exit statuses (one source: ``EXIT_CODES``, printed in the README's table):
 
-==== ==========================================================================
-code meaning
-==== ==========================================================================
-0    success
-1    the command ran but found no answer (``ik`` with no solution)
-2    a user mistake: missing file, bad TOML, bad value or option, too big a job,
-     an output path that is not a folder or regular file; one line on stderr
-3    refused by the servo bus or a solver, or out of memory; one line on stderr
-130  interrupted (Ctrl-C); one line on stderr
-==== ==========================================================================
-"""
+==== ==================================================================="""
 
 from __future__ import annotations
 
@@ -33,13 +23,16 @@ __all__ = ["main", "make_parser", "UsageError", "EXIT_CODES"]
 _RUNTIME_OPTIONS = {"port": "--port", "baud": "--baud", "scheduler": "--scheduler"}
 
 EXIT_OK, EXIT_NO_SOLUTION, EXIT_USAGE, EXIT_REFUSED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_ARM_STATE, EXIT_BUS = 4, 5  # the ``exit_status`` of the bridge's errors
 
 #: Every exit status of the ``handarm`` command and what it means (the README's table).
 EXIT_CODES = {
     EXIT_OK: "success",
     EXIT_NO_SOLUTION: "the command ran but found no answer (`ik` with no solution)",
     EXIT_USAGE: "a user mistake (file, value, option, a job over the resource limit); one line",
-    EXIT_REFUSED: "refused by the servo bus or a solver, or out of memory; one line",
+    EXIT_REFUSED: "refused by a solver or the motion planner, or out of memory; one line",
+    EXIT_ARM_STATE: "arm state: unknown or invalid pose, servo settings differ, a servo fault",
+    EXIT_BUS: "bus failure: port lost, servo silent, duplicate ID, a failed write",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C); one line",
 }
 
@@ -143,10 +136,11 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError:
         print(f"{name}: error: out of memory; ask for a smaller job", file=sys.stderr)
         return EXIT_REFUSED
-    except RuntimeError as exc:  # the servo bus (BusError) or a solver said no
+    except RuntimeError as exc:  # a solver, the planner, the arm's state or the bus said no
+        status = getattr(exc, "exit_status", EXIT_REFUSED)
         exc = option_error(exc, _RUNTIME_OPTIONS)
         print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_REFUSED
+        return status
     finally:
         signal.signal(signal.SIGINT, previous)
 

@@ -39,7 +39,7 @@ def _achieved_limits(path):
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Write controller.json, arm_config.h and a ros2_control fragment."""
+    """Write controller.json and arm_config.h."""
     from handarm.pipeline import export_controller
 
     design = load_design(args.design)
@@ -101,17 +101,17 @@ def cmd_size(args: argparse.Namespace) -> int:
 def _bus(args, design):
     from handarm.firmware_bridge.bus import ServoBus
 
-    return ServoBus(args.port, args.baud or design.baud_rate)
+    return ServoBus(args.port, args.baud or design.baud_rate, args.timeout)
 
 
 def cmd_apply(args: argparse.Namespace) -> int:
-    """Check all six servos, write their EEPROM settings and verify them."""
+    """Check all six servos, write their settings and verify them."""
     from handarm.firmware_bridge.bus import apply_settings
 
     design = load_design(args.design)
     calibration = _calibration(args, design, required=False)
     with _bus(args, design) as bus:
-        settings = apply_settings(bus, design, calibration)
+        settings = apply_settings(bus, design, calibration, args.max_torque)
     for sid, regs in settings.items():
         print(f"servo {sid}: " + ", ".join(f"{k}={v}" for k, v in regs.items()) + " (verified)")
     return 0
@@ -131,28 +131,158 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_read(args: argparse.Namespace) -> int:
-    """Print the joint angles (degrees) from the motor encoders."""
-    from handarm.firmware_bridge.bus import read_joint_angles
+    """Print the joint angles (degrees); refuse a pose the calibration cannot explain."""
+    from handarm.firmware_bridge.bus import check_servos, present_pose
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
     with _bus(args, design) as bus:
-        q = read_joint_angles(bus, design, calibration)
+        check_servos(bus, design)
+        q = present_pose(bus, design, calibration)
     print(" ".join(f"{v:.2f}" for v in np.degrees(q)))
     return 0
 
 
+def _limits(args, design):
+    from handarm.firmware_bridge.motion import MotionLimits
+
+    try:
+        return MotionLimits(design, args.speed, args.acceleration)
+    except ValueError as exc:
+        raise option_error(exc, {"speed_fraction": "--speed", "acceleration": "--accel"}) from None
+
+
 def cmd_goto(args: argparse.Namespace) -> int:
-    """Send joint targets (degrees, as 'handarm ik' prints them)."""
+    """Move to joint targets (degrees) along a collision-free timed path."""
     from handarm.firmware_bridge.bus import goal_ticks, goto
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
     q = np.radians(args.q)
     goal_ticks(design, calibration, q)  # refuse before opening the port
+    limits = _limits(args, design)
+    if not args.rate > 0:
+        raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
     with _bus(args, design) as bus:
-        ticks = goto(bus, design, calibration, q)
-    print("sent ticks: " + " ".join(str(int(t)) for t in ticks))
+        samples = goto(
+            bus,
+            design,
+            calibration,
+            q,
+            rate=args.rate,
+            limits=limits,
+            max_torque_fraction=args.max_torque,
+        )
+    print(
+        f"moved in {len(samples) - 1} steps of {1000 / args.rate:g} ms to "
+        + " ".join(f"{v:.2f}" for v in np.degrees(samples[-1]))
+    )
+    return 0
+
+
+def cmd_torque(args: argparse.Namespace) -> int:
+    """Turn the torque of all six servos on (holding the present pose) or off."""
+    from handarm.firmware_bridge.bus import check_state, set_torque
+
+    design = load_design(args.design)
+    with _bus(args, design) as bus:
+        if args.state == "on":
+            calibration = _calibration(args, design)
+            check_state(bus, design, calibration, args.max_torque)
+        set_torque(bus, design, args.state == "on")
+    print(f"torque {args.state}")
+    return 0
+
+
+def cmd_stop(args: argparse.Namespace) -> int:
+    """Hold the present position of every servo."""
+    from handarm.firmware_bridge.bus import check_servos, hold
+
+    design = load_design(args.design)
+    with _bus(args, design) as bus:
+        check_servos(bus, design)
+        ticks = hold(bus, design)
+    print("holding ticks: " + " ".join(str(int(t)) for t in ticks))
+    return 0
+
+
+def _ids(text):
+    lo, _, hi = text.partition("-")
+    try:
+        lo, hi = int(lo), int(hi or lo)
+    except ValueError:
+        raise UsageError(f"--ids: expected N or N-M, got {text!r}") from None
+    if not 0 <= lo <= hi <= 253:
+        raise UsageError(f"--ids: expected IDs within 0..253, got {text!r}")
+    return range(lo, hi + 1)
+
+
+def _bauds(values):
+    from handarm.firmware_bridge.mx64 import BAUD_VALUES
+
+    for b in values or ():
+        if b not in BAUD_VALUES:
+            raise UsageError(f"--baud: {b} is not an MX-64 rate; choose from {sorted(BAUD_VALUES)}")
+    return values or None
+
+
+def cmd_scan(args: argparse.Namespace) -> int:
+    """List every servo that answers, at each baud the MX-64 supports."""
+    from handarm.firmware_bridge.bus import scan
+
+    found = scan(args.port, _bauds(args.baud), _ids(args.ids), args.timeout)
+    for f in found:
+        note = "  DUPLICATE: two servos answer to this ID" if f["duplicate"] else ""
+        print(
+            f"ID {f['id']:3d}  {f['baud']:>9d} bit/s  model {f['model_number']}  "
+            f"firmware {f['firmware']}{note}"
+        )
+    if not found:
+        print("no servo answered")
+        return 5  # as a bus failure: check power, wiring and --port
+    return 4 if any(f["duplicate"] for f in found) else 0
+
+
+def cmd_setup(args: argparse.Namespace) -> int:
+    """Give the one connected servo the ID and baud of a joint, with read-back."""
+    from handarm.firmware_bridge.bus import setup_servo
+
+    design = load_design(args.design)
+    result = setup_servo(
+        args.port, design, args.joint, _bauds(args.baud), _ids(args.ids), args.timeout
+    )
+    was = result["was"]
+    print(
+        f"joint {args.joint}: ID {was['id']} at {was['baud']} bit/s -> ID {result['id']} at "
+        f"{result['baud']} bit/s (read back)"
+    )
+    return 0
+
+
+def cmd_follow(args: argparse.Namespace) -> int:
+    """Keep the tool on a stream of targets while the handle moves (JSON lines)."""
+    from handarm.firmware_bridge.follow import follow, open_source
+
+    design = load_design(args.design)
+    calibration = _calibration(args, design)
+    limits = _limits(args, design)
+    if not args.rate > 0:
+        raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
+    source = open_source(args.source)
+    with _bus(args, design) as bus:
+        stats = follow(
+            bus,
+            design,
+            calibration,
+            source,
+            rate=args.rate,
+            limits=limits,
+            max_torque_fraction=args.max_torque,
+        )
+    print(
+        f"followed {stats['targets']} targets in {stats['periods']} periods "
+        f"({stats['rate']:.1f} Hz achieved)"
+    )
     return 0
 
 
@@ -170,11 +300,22 @@ def cmd_emulate(args: argparse.Namespace) -> int:
 
 
 _LIVE = (
-    ("apply", cmd_apply, "write and verify the servos' EEPROM settings", False),
+    ("apply", cmd_apply, "write and verify the servos' settings", False),
     ("calibrate", cmd_calibrate, "record the encoder offsets at the zero pose", False),
     ("read", cmd_read, "print the joint angles from the encoders", True),
-    ("goto", cmd_goto, "move to joint targets (degrees)", True),
+    ("goto", cmd_goto, "move to joint targets (degrees) along a collision-free path", True),
+    ("torque", cmd_torque, "torque on (holding the pose) or off", False),
+    ("stop", cmd_stop, "hold the present position", False),
+    ("follow", cmd_follow, "keep the tool on streamed targets (JSON lines)", True),
 )
+
+
+def _port_args(p) -> None:
+    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=int, help="bit rate (default: the design's)")
+    p.add_argument(
+        "--timeout", type=float, metavar="MS", help="status timeout, ms (default: the SDK's)"
+    )
 
 
 def register(sub) -> None:
@@ -188,8 +329,8 @@ def register(sub) -> None:
     bsub.required = True
     p = bsub.add_parser(
         "export",
-        help="controller.json, arm_config.h, ros2_control.xml",
-        description="Write controller.json, arm_config.h and a ros2_control fragment.",
+        help="controller.json, arm_config.h",
+        description="Write controller.json and arm_config.h (no ros2_control: see the guide).",
     )
     add_design_arg(p)
     p.add_argument("--out", default="build/controller", help="output folder")
@@ -254,10 +395,43 @@ def register(sub) -> None:
                 help="joint targets, degrees",
             )
             p.add_argument("--design", metavar="DESIGN.toml", help="arm design")
+        elif name == "torque":
+            p.add_argument("state", choices=("on", "off"), help="on or off")
+            p.add_argument("--design", metavar="DESIGN.toml", help="arm design")
         else:
             add_design_arg(p)
-        p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
-        p.add_argument("--baud", type=number(int, low=1), help="bit rate (default: the design's)")
+        _port_args(p)
+        if name in ("apply", "goto", "torque", "follow"):
+            p.add_argument(
+                "--max-torque",
+                type=float,
+                default=1.0,
+                metavar="FRACTION",
+                help="Max Torque as a fraction of 1023, as given to apply (default 1)",
+            )
+        if name in ("goto", "follow"):
+            p.add_argument("--rate", type=float, default=50.0, help="control rate, Hz")
+            p.add_argument(
+                "--speed",
+                type=float,
+                default=0.5,
+                metavar="FRACTION",
+                help="motor speed limit as a fraction of no-load speed (default 0.5)",
+            )
+            p.add_argument(
+                "--accel",
+                dest="acceleration",
+                type=float,
+                default=20.0,
+                metavar="RAD_S2",
+                help="motor acceleration limit, rad/s^2 (default 20)",
+            )
+        if name == "follow":
+            p.add_argument(
+                "--source",
+                default="-",
+                help="JSON-lines targets: a file, '-' for stdin, or udp:PORT on localhost",
+            )
         if name == "calibrate":
             p.add_argument("--out", default="calibration.json", help="calibration file to write")
             p.add_argument("--force", action="store_true", help="overwrite an existing --out")
@@ -269,6 +443,31 @@ def register(sub) -> None:
                 help="calibration JSON from 'handarm bridge calibrate'",
             )
         p.set_defaults(func=func)
+
+    p = bsub.add_parser(
+        "scan",
+        help="list the servos at every baud",
+        description="List every servo that answers (ID, baud, model, firmware, duplicates).",
+    )
+    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=int, nargs="+", help="rates to try (default: all MX-64 rates)")
+    p.add_argument("--ids", default="0-253", help="IDs to ping, N or N-M (default 0-253)")
+    p.add_argument("--timeout", type=float, metavar="MS", help="status timeout, ms")
+    p.set_defaults(func=cmd_scan)
+
+    p = bsub.add_parser(
+        "setup",
+        help="give one connected servo a joint's ID and baud",
+        description="Give the one servo on the bus the ID and baud of a joint (factory "
+        "servos: ID 1 at 57600), with read-back. Connect one servo at a time.",
+    )
+    add_design_arg(p)
+    p.add_argument("--joint", type=int, required=True, help="joint 1..6")
+    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=int, nargs="+", help="rates to search (default: all)")
+    p.add_argument("--ids", default="0-253", help="IDs to search, N or N-M (default 0-253)")
+    p.add_argument("--timeout", type=float, metavar="MS", help="status timeout, ms")
+    p.set_defaults(func=cmd_setup)
 
     p = bsub.add_parser(
         "emulate",

@@ -36,6 +36,9 @@ class Calibration:
     @classmethod
     def record(cls, design: ArmDesign, readings) -> Calibration:
         """A calibration from the six Present Position readings taken at the zero pose."""
+        for i, r in enumerate(readings):
+            if isinstance(r, bool) or int(r) != r:
+                raise ValueError(f"readings[{i}]: expected an integer tick count, got {r!r}")
         readings = tuple(int(r) for r in readings)
         if len(readings) != 6:
             raise ValueError(f"readings: expected 6 values, got {len(readings)}")
@@ -86,6 +89,13 @@ class Calibration:
             raise ValueError(f"{path}: not valid JSON: {exc}") from None
         if not isinstance(data, dict) or data.get("schema") != SCHEMA:
             raise ValueError(f"{path}: not a handarm calibration (schema {SCHEMA!r} expected)")
+        for field in ("offsets", "servo_ids"):
+            for i, v in enumerate(data.get(field) or []):
+                if isinstance(v, bool) or not isinstance(v, int):
+                    raise ValueError(
+                        f"{path}: {field}[{i}]: expected an integer (encoder ticks are whole "
+                        f"numbers), got {v!r}"
+                    )
         try:
             cal = cls(
                 _strict(data, "design_name", str),

@@ -6,18 +6,31 @@ Each servo keeps a stateful control table; instruction packets are parsed with t
 checksums; status packets carry error bits. Goal Position moves a servo at once.
 
 Faults, for tests: a silent servo (no reply), a servo whose replies have a bad checksum, a
-servo that reports another model number (311 is the MX(2.0) firmware), a late reply.
+servo that reports another model number (311 is the MX(2.0) firmware), a late reply, two
+servos answering to one ID, a servo that overheats or overloads after some goals, a power
+cycle (``power_cycle``: RAM back to its defaults, multi-turn position back within one turn).
+Each servo answers only at its own Baud Rate (the host's rate is read from the pty).
 """
 
 from __future__ import annotations
 
 import os
 import select
+import termios
 import threading
 import tty
 from collections.abc import Iterable, Mapping
 
-from handarm.firmware_bridge.mx64 import ADDR, MODEL_NUMBER, MULTI_TURN_LIMIT
+from handarm.firmware_bridge.mx64 import (
+    ADDR,
+    BAUD_VALUES,
+    EEPROM_END,
+    MODEL_NUMBER,
+    MULTI_TURN_LIMIT,
+    TICKS_PER_REV,
+    from_unsigned16,
+)
+from handarm.servo import SERVOS
 
 __all__ = ["EmulatedServo", "EmulatedBus"]
 
@@ -33,6 +46,10 @@ PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC_WRITE, BULK_READ = (
 )
 BROADCAST = 0xFE
 ERR_ANGLE, ERR_RANGE, ERR_CHECKSUM, ERR_INSTRUCTION = 0x02, 0x08, 0x10, 0x40
+ERR_OVERHEAT, ERR_OVERLOAD = 0x04, 0x20
+_SPEC = SERVOS["MX-64T"]  # factory defaults come from the one servo specification
+_REGISTER_BAUD = {v: k for k, v in BAUD_VALUES.items()}
+_TERMIOS_BAUD = {getattr(termios, f"B{b}"): b for b in BAUD_VALUES if hasattr(termios, f"B{b}")}
 _TABLE_SIZE = 74
 _READ_ONLY = set(range(0, 3)) | set(range(36, 47)) | {50, 51}
 
@@ -44,27 +61,29 @@ def _checksum(body: Iterable[int]) -> int:
 class EmulatedServo:
     """One MX-64T: a control table with the Protocol 1.0 firmware's defaults."""
 
-    def __init__(self, servo_id: int, model: int = MODEL_NUMBER, position: int = 2048):
+    def __init__(
+        self, servo_id: int, model: int = MODEL_NUMBER, position: int = 2048, baud_register=1
+    ):
         t = bytearray(_TABLE_SIZE)
         self.table = t
         self._put("model_number", model)
         defaults = {
             "firmware_version": 36,
             "id": servo_id,
-            "baud_rate": 1,
+            "baud_rate": baud_register,
             "return_delay_time": 250,
             "cw_angle_limit": 0,
             "ccw_angle_limit": 4095,
-            "temperature_limit": 80,
+            "temperature_limit": _SPEC.temperature_limit,
             "min_voltage_limit": 60,
             "max_voltage_limit": 240,
-            "max_torque": 1023,
+            "max_torque": _SPEC.max_torque_register,
             "status_return_level": 2,
             "alarm_led": 36,
             "shutdown": 36,
             "resolution_divider": 1,
             "goal_position": position,
-            "torque_limit": 1023,
+            "torque_limit": _SPEC.max_torque_register,
             "present_position": position,
             "present_voltage": 120,
             "present_temperature": 35,
@@ -73,6 +92,28 @@ class EmulatedServo:
             self._put(name, value)
         t[28] = 32  # P gain
         self.pending: tuple[int, bytes] | None = None
+        self.real = position  # encoder ticks counted over turns (what the shaft is at)
+        self.alarm = 0  # error bits reported in every status packet
+        self.goals = 0  # Goal Position writes received
+        self.fault_after: tuple[int, int] | None = None  # (goals, error bit)
+
+    def power_cycle(self) -> None:
+        """Power off and on: RAM to its defaults, the turn count lost, EEPROM kept."""
+        fresh = EmulatedServo(self.id, self.get("model_number"))
+        self.table[EEPROM_END:] = fresh.table[EEPROM_END:]
+        self.real %= TICKS_PER_REV  # multi-turn position restarts within one turn
+        self.alarm, self.pending = 0, None
+        self._put("torque_limit", self.get("max_torque"))
+        self._sync_present()
+        self.table[30:32] = self.table[36:38]
+
+    def _sync_present(self) -> None:
+        if self.multi_turn:
+            div = max(1, self.get("resolution_divider"))
+            offset = from_unsigned16(self.get("multi_turn_offset"))
+            self._put("present_position", self.real // div + offset)
+        else:
+            self._put("present_position", self.real % TICKS_PER_REV)
 
     @property
     def id(self) -> int:
@@ -116,7 +157,24 @@ class EmulatedServo:
         self.table[addr:end] = data
         if addr <= goal_addr < end - 1:
             # the emulated servo reaches its goal at once
-            self.table[36:38] = self.table[30:32]
+            goal = self.get("goal_position")
+            if self.multi_turn:
+                div = max(1, self.get("resolution_divider"))
+                offset = from_unsigned16(self.get("multi_turn_offset"))
+                self.real = (from_unsigned16(goal) - offset) * div
+            else:
+                self.real = goal
+            self.goals += 1
+            if self.fault_after is not None and self.goals >= self.fault_after[0]:
+                self.alarm |= self.fault_after[1]
+                if self.alarm & ERR_OVERHEAT:
+                    self._put("present_temperature", self.get("temperature_limit") + 1)
+                if self.alarm & ERR_OVERLOAD:
+                    self._put("present_load", self.get("max_torque"))
+                if self.alarm & self.get("shutdown"):
+                    self._put("torque_limit", 0)
+        if addr < 24 or addr <= goal_addr < end - 1:
+            self._sync_present()
         return 0
 
 
@@ -137,6 +195,11 @@ class EmulatedBus:
         Seconds of delay before the given IDs answer.
     positions : mapping, optional
         Initial Present Position per ID (ticks).
+    duplicates : iterable of int
+        IDs two servos answer to (both reply, as two servos on one bus would).
+    bauds : mapping, optional
+        Bit rate per ID (default 1,000,000, the design's); a servo answers only when the
+        host's port runs at its rate.
     """
 
     def __init__(
@@ -148,12 +211,22 @@ class EmulatedBus:
         bad_checksum: Iterable[int] = (),
         late: Mapping[int, float] | None = None,
         positions: Mapping[int, int] | None = None,
+        duplicates: Iterable[int] = (),
+        bauds: Mapping[int, int] | None = None,
     ):
         models = dict(models or {})
         positions = dict(positions or {})
+        bauds = dict(bauds or {})
         self.servos = {
-            i: EmulatedServo(i, models.get(i, MODEL_NUMBER), positions.get(i, 2048)) for i in ids
+            i: EmulatedServo(
+                i,
+                models.get(i, MODEL_NUMBER),
+                positions.get(i, 2048),
+                BAUD_VALUES[bauds.get(i, 1_000_000)],
+            )
+            for i in ids
         }
+        self.duplicates = set(duplicates)
         self.silent = set(silent)
         self.bad_checksum = set(bad_checksum)
         self.late = dict(late or {})
@@ -220,10 +293,26 @@ class EmulatedBus:
                 del buf[:total]
                 self._handle(packet)
 
+    def power_cycle(self) -> None:
+        """Power every servo off and on (see ``EmulatedServo.power_cycle``)."""
+        for servo in self.servos.values():
+            servo.power_cycle()
+
+    def host_baud(self) -> int | None:
+        """The bit rate the host set on the port (0 if not a termios standard), None if closed."""
+        if self._slave < 0:
+            return None
+        return _TERMIOS_BAUD.get(termios.tcgetattr(self._slave)[5], 0)
+
+    def _hears(self, servo: EmulatedServo) -> bool:
+        host = self.host_baud()
+        return host is None or _REGISTER_BAUD.get(servo.get("baud_rate"), 0) == host
+
     def _reply(self, servo: EmulatedServo, error: int, params: bytes = b"") -> None:
         sid = servo.id
         if sid in self.silent:
             return
+        error |= servo.alarm
         body = bytes([sid, len(params) + 2, error]) + params
         chk = _checksum(body)
         if sid in self.bad_checksum:
@@ -234,6 +323,8 @@ class EmulatedBus:
             threading.Timer(self.late[sid], self._write, args=(packet,)).start()
         else:
             self._write(packet)
+        if sid in self.duplicates:
+            self._write(packet)  # a second servo with the same ID answers too
 
     def _write(self, packet: bytes) -> None:
         if self._master >= 0 and not self._stop.is_set():
@@ -248,6 +339,7 @@ class EmulatedBus:
             if sid == BROADCAST
             else ([self.servos[sid]] if sid in self.servos else [])
         )
+        targets = [servo for servo in targets if self._hears(servo)]
         if _checksum(packet[2:-1]) != packet[-1]:
             for servo in targets if sid != BROADCAST else []:
                 self._reply(servo, ERR_CHECKSUM)
@@ -295,7 +387,7 @@ class EmulatedBus:
         addr, size = params[0], params[1]
         for k in range(2, len(params) - size, size + 1):
             sid = params[k]
-            if sid in self.servos:
+            if sid in self.servos and self._hears(self.servos[sid]):
                 self.servos[sid].write(addr, params[k + 1 : k + 1 + size])
 
     def _bulk_read(self, params: bytes) -> None:

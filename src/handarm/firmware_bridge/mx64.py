@@ -16,6 +16,10 @@ __all__ = [
     "MULTI_TURN_LIMIT",
     "ADDR",
     "EEPROM_END",
+    "ERROR_BITS",
+    "STOP_BITS",
+    "MONITOR_ADDR",
+    "MONITOR_SIZE",
     "BAUD_VALUES",
     "to_unsigned16",
     "from_unsigned16",
@@ -48,6 +52,9 @@ ADDR = {
     "resolution_divider": (22, 1),
     "torque_enable": (24, 1),
     "led": (25, 1),
+    "d_gain": (26, 1),
+    "i_gain": (27, 1),
+    "p_gain": (28, 1),
     "goal_position": (30, 2),
     "moving_speed": (32, 2),
     "torque_limit": (34, 2),
@@ -59,7 +66,22 @@ ADDR = {
     "moving": (46, 1),
     "lock": (47, 1),
 }
-EEPROM_END = 24  # addresses below this persist across power cycles
+EEPROM_END = 24
+#: Present Load, Present Voltage and Present Temperature, read together during moves.
+MONITOR_ADDR, MONITOR_SIZE = 40, 4
+
+#: Error bits of a Protocol 1.0 status packet.
+ERROR_BITS = {
+    0x01: "input voltage",
+    0x02: "angle limit",
+    0x04: "overheating",
+    0x08: "range",
+    0x10: "checksum",
+    0x20: "overload",
+    0x40: "instruction",
+}
+#: Error bits that stop a move (the servo's Shutdown default, 36, uses the same two).
+STOP_BITS = 0x04 | 0x20  # addresses below this persist across power cycles
 
 #: Baud Rate register values for the rates the SDK's PortHandler accepts.
 BAUD_VALUES = {

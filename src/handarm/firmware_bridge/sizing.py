@@ -232,8 +232,10 @@ def size_pulleys(
     """Joint pulley radii in ``radius_range`` (m) that maximise the payload.
 
     Each joint turning alone must reach ``min_speed`` (rad/s) with the motors at no-load
-    speed. A sequence of linear feasibility programs in w = 1/r (bisection on the payload, to
-    ``tolerance`` kg); gravity along ``directions`` (default: 26 directions of a cube).
+    speed. A sequence of feasibility programs in w = 1/r (bisection on the payload, to
+    ``tolerance`` kg). Gravity along every direction by default: each motor torque is a
+    3-vector linear in w whose norm is the worst direction's torque (second-order cones,
+    as ``max_payload``); with ``directions``, linear programs over those directions.
     """
     r_lo, r_hi = radius_range
     if not 0.0 < r_lo < r_hi:
@@ -241,7 +243,7 @@ def size_pulleys(
     if min_speed <= 0:
         raise ValueError(f"min_speed: must be > 0, got {min_speed}")
     q, links, a, b = _cases(design, configurations, links)
-    g = gravity_directions() if directions is None else np.asarray(directions, float)
+    g = np.eye(3) if directions is None else np.asarray(directions, float)
     ta = np.einsum("njx,dx->ndj", a, g).reshape(-1, 6) * GRAVITY  # joint torques per case
     tb = np.einsum("njx,dx->ndj", b, g).reshape(-1, 6) * GRAVITY
     signs = np.array(design.routing_signs, dtype=float)
@@ -264,7 +266,13 @@ def size_pulleys(
         joint = ta + m * tb  # joint torques of every (configuration, direction) case
         # motor torques = rho * S^-T diag(w) tau_joint: linear in w for a fixed payload
         motor = rho * cp.multiply(joint, cp.reshape(w, (1, 6), order="C")) @ s_inv_t.T
-        prob = cp.Problem(cp.Minimize(cp.sum(w)), [cp.abs(motor) <= limit, w >= w_lo, w <= w_hi])
+        if directions is None:
+            # rows are (configuration, x|y|z): gather each motor's 3-vector, bound its norm
+            vec = cp.reshape(motor.T, (6 * len(q), 3), order="C")
+            torque = [cp.norm(vec, 2, axis=1) <= limit]
+        else:
+            torque = [cp.abs(motor) <= limit]
+        prob = cp.Problem(cp.Minimize(cp.sum(w)), [*torque, w >= w_lo, w <= w_hi])
         _solve(prob)
         return prob.status in ("optimal", "optimal_inaccurate"), w.value
 
@@ -335,7 +343,7 @@ def sizing_report(
         "binding_motor": info.get("binding_motor"),
         "sized_joint_pulley_radii_mm": (sized.radii * 1000).tolist(),
         "sized_payload_kg": sized.payload,
-        "sizing_gravity": "26 gravity directions",
+        "sizing_gravity": "every gravity direction",
         "min_joint_speed_deg_s": math.degrees(min_speed),
     }
 

@@ -1,0 +1,300 @@
+"""The handheld follow loop: the user holds the arm, the tool keeps a target.
+
+Targets arrive as JSON lines, one object per line, either in the handle frame (the arm's
+base frame, which the user holds)::
+
+    {"p": [x, y, z], "e": [ex, ey, ez]}
+
+or in the world frame together with the handle's pose (rotation R, 3x3 row-major, and
+position t, metres), which the loop turns into the handle frame (p_h = R^T (p - t),
+e_h = R^T e)::
+
+    {"p": [...], "e": [...], "handle": {"R": [[...], [...], [...]], "t": [...]}}
+
+Each period the loop solves the newest target with ``handarm.ik.solve(..., current=...)``
+(whose degradation gives the closest reachable pose), moves the command towards its
+``follow`` configuration no farther than the motor velocity limit allows in one period,
+checks the step's straight line is valid (``motion.segment_valid``), and sends it as Goal
+Position and Moving Speed. A step that would not be valid is not taken (the arm holds).
+"""
+
+from __future__ import annotations
+
+import json
+import queue
+import socket
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from handarm.design import ArmDesign
+from handarm.firmware_bridge.bus import (
+    ServoBus,
+    ServoFault,
+    check_health,
+    check_state,
+    expected_registers,
+    hold,
+    send_sample,
+    set_torque,
+)
+from handarm.firmware_bridge.calibration import Calibration
+from handarm.firmware_bridge.motion import (
+    MotionLimits,
+    check_step,
+    segment_valid,
+    serial_checks,
+)
+
+__all__ = ["parse_target", "TargetSource", "open_source", "follow_step", "follow"]
+
+
+def _vector(obj, key: str, where: str) -> np.ndarray:
+    try:
+        v = np.asarray(obj[key], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"{where}: '{key}' missing or not numbers") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{where}: '{key}' must be 3 finite numbers")
+    return v
+
+
+def parse_target(line: str, where: str = "target") -> tuple[np.ndarray, np.ndarray]:
+    """(p, e) in the handle frame from one JSON line; ValueError naming ``where``."""
+    try:
+        obj = json.loads(line)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{where}: not JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise ValueError(f"{where}: expected a JSON object")
+    p, e = _vector(obj, "p", where), _vector(obj, "e", where)
+    if "handle" in obj:
+        handle = obj["handle"]
+        try:
+            r = np.asarray(handle["R"], dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{where}: 'handle.R' missing or not numbers") from None
+        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
+            raise ValueError(f"{where}: 'handle.R' must be a 3x3 rotation matrix")
+        t = _vector(handle, "t", f"{where}: handle")
+        p, e = r.T @ (p - t), r.T @ e
+    return p, e
+
+
+class TargetSource:
+    """Lines from a file (one per period), stdin or a localhost UDP port (newest wins).
+
+    A reader thread queues ``(arrival time, line number, line)``; ``poll`` returns the
+    target for this period, ``done`` is True once a file or stdin has ended and been used.
+    """
+
+    def __init__(self, lines=None, sock: socket.socket | None = None, paced: bool = False):
+        self.paced = paced
+        self.queue: queue.Queue = queue.Queue()
+        self.ended = threading.Event()
+        self.sock = sock
+        target = self._read_lines if sock is None else self._read_socket
+        self._thread = threading.Thread(target=target, args=(lines,), daemon=True)
+        self._thread.start()
+
+    def _read_lines(self, lines) -> None:
+        for n, line in enumerate(lines, start=1):
+            if line.strip():
+                self.queue.put((time.perf_counter(), n, line))
+        self.ended.set()
+
+    def _read_socket(self, _lines) -> None:
+        n = 0
+        while not self.ended.is_set():
+            try:
+                data = self.sock.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError:
+                break
+            for line in data.decode("utf-8", "replace").splitlines():
+                n += 1
+                if line.strip():
+                    self.queue.put((time.perf_counter(), n, line))
+
+    def poll(self):
+        """``(arrival, line number, line)`` for this period, or None."""
+        if self.paced:  # a recorded stream: each line arrives when its period starts
+            try:
+                _, n, line = self.queue.get_nowait()
+            except queue.Empty:
+                return None
+            return time.perf_counter(), n, line
+        item = None
+        while True:
+            try:
+                item = self.queue.get_nowait()
+            except queue.Empty:
+                return item
+
+    @property
+    def done(self) -> bool:
+        """A file or stdin has ended and every line has been handed out."""
+        return self.sock is None and self.ended.is_set() and self.queue.empty()
+
+    def close(self) -> None:
+        """Stop reading (closes the socket)."""
+        self.ended.set()
+        if self.sock is not None:
+            self.sock.close()
+
+
+def open_source(spec: str) -> TargetSource:
+    """A TargetSource from ``-`` (stdin), ``udp:PORT`` (127.0.0.1) or a file path."""
+    if spec == "-":
+        return TargetSource(sys.stdin)
+    if spec.startswith("udp:"):
+        try:
+            port = int(spec[4:])
+        except ValueError:
+            raise ValueError(f"source: expected udp:PORT, got {spec!r}") from None
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind(("127.0.0.1", port))
+        sock.settimeout(0.1)
+        return TargetSource(sock=sock)
+    path = Path(spec)
+    if not path.is_file():
+        raise FileNotFoundError(f"source: no such file: {spec}")
+    return TargetSource(path.read_text().splitlines(), paced=True)
+
+
+def follow_step(
+    design: ArmDesign, q_cmd, target, dt: float, limits: MotionLimits
+) -> tuple[np.ndarray, int]:
+    """The next command from ``q_cmd`` towards the IK answer for ``target`` = (p, e).
+
+    Returns
+    -------
+    q_next : ndarray, shape (6,)
+        At most one period's motion at ``limits`` away from ``q_cmd``, on a valid straight
+        line; ``q_cmd`` itself when no such step exists.
+    reached_dof : int
+        The degrees of freedom the IK answer achieves (0 when it gives no configuration).
+    """
+    from handarm.ik import solve
+
+    p, e = target
+    result = solve(design, p, e, current=q_cmd)
+    goal = getattr(result, "follow", None)
+    if goal is None:
+        return q_cmd, 0
+    q_next = check_step(design, q_cmd, np.asarray(goal, float), dt, limits)
+    for _ in range(4):
+        if segment_valid(design, q_cmd, q_next):
+            return q_next, int(result.reached_dof)
+        q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
+    return q_cmd, int(result.reached_dof)
+
+
+def follow(
+    bus: ServoBus,
+    design: ArmDesign,
+    calibration: Calibration,
+    source: TargetSource,
+    *,
+    rate: float = 100.0,
+    limits: MotionLimits | None = None,
+    max_torque_fraction: float = 1.0,
+    max_periods: int | None = None,
+    on_period=None,
+) -> dict:
+    """Run the follow loop until the source ends (file, stdin), ``max_periods``, or Ctrl-C.
+
+    Checks the servos and the present pose first (``check_state``) and turns torque on
+    holding it. Every period: newest target -> ``follow_step`` -> ``send_sample`` -> one
+    servo's health (``check_health``). A bad target line, a fault or Ctrl-C holds the arm
+    and raises.
+
+    Returns
+    -------
+    dict
+        ``periods``, ``targets``, ``rate`` (achieved, Hz), ``latency_ms`` (target arrival to
+        its command on the bus: median, 95th percentile, max), ``period_ms`` (same), and
+        ``q`` (last command, rad).
+    """
+    with serial_checks():
+        return _follow(
+            bus,
+            design,
+            calibration,
+            source,
+            rate,
+            limits,
+            max_torque_fraction,
+            max_periods,
+            on_period,
+        )
+
+
+def _follow(
+    bus, design, calibration, source, rate, limits, max_torque_fraction, max_periods, on_period
+) -> dict:
+    limits = MotionLimits(design) if limits is None else limits
+    dt = 1.0 / rate
+    q_cmd = check_state(bus, design, calibration, max_torque_fraction)
+    set_torque(bus, design, True)
+    limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
+    target, latencies, periods, n_targets = None, [], [], 0
+    i = 0
+    t0 = last = time.perf_counter()
+    try:
+        while max_periods is None or i < max_periods:
+            item = source.poll()
+            if item is None and source.done and target is None:
+                break
+            arrival = None
+            if item is not None:
+                arrival, n, line = item
+                target = parse_target(line, f"target line {n}")
+                n_targets += 1
+            if target is not None:
+                q_next, _ = follow_step(design, q_cmd, target, dt, limits)
+                send_sample(bus, design, calibration, q_next, q_cmd, dt)
+                if arrival is not None:
+                    latencies.append(time.perf_counter() - arrival)
+                if item is None and source.done and np.array_equal(q_next, q_cmd):
+                    break  # the last target is reached (or as near as it gets)
+                q_cmd = q_next
+            check_health(bus, design, i, limit["torque_limit"])
+            if on_period is not None:
+                on_period(q_cmd)
+            now = time.perf_counter()
+            periods.append(now - last)
+            last = now
+            i += 1
+            delay = t0 + i * dt - time.perf_counter()
+            if delay > 0:
+                time.sleep(delay)
+    except (KeyboardInterrupt, ServoFault, ValueError):
+        hold(bus, design)
+        raise
+    finally:
+        source.close()
+    elapsed = time.perf_counter() - t0
+
+    def stats(v):
+        v = np.asarray(v) * 1000.0
+        if v.size == 0:
+            return {"median": None, "p95": None, "max": None}
+        return {
+            "median": float(np.median(v)),
+            "p95": float(np.percentile(v, 95)),
+            "max": float(v.max()),
+        }
+
+    return {
+        "periods": i,
+        "targets": n_targets,
+        "rate": i / elapsed if elapsed > 0 else 0.0,
+        "latency_ms": stats(latencies),
+        "period_ms": stats(periods),
+        "q": q_cmd,
+    }

@@ -1,0 +1,289 @@
+"""Every safety behaviour of the bridge, against the emulated MX-64T bus (issue 12)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import handarm
+from handarm.cli import main
+from handarm.firmware_bridge import bus as B
+from handarm.firmware_bridge.emulator import (
+    ERR_OVERHEAT,
+    ERR_RANGE,
+    SYNC_WRITE,
+    WRITE,
+    EmulatedBus,
+)
+from handarm.firmware_bridge.mx64 import from_unsigned16
+from handarm.transmission import joint_from_motor, motor_from_joint, motor_from_ticks
+
+TIMEOUT = 1000.0  # ms: on a loaded machine the emulator thread can answer late
+START = {1: 2000, 2: 100, 3: 3000, 4: 2048, 5: 4000, 6: 10}
+
+
+@pytest.fixture
+def design():
+    return handarm.ArmDesign()
+
+
+def writes(emu, since=0):
+    return [e for e in emu.log[since:] if e[1] in (WRITE, SYNC_WRITE)]
+
+
+def ready(emu, bus, design):
+    cal = B.record_calibration(bus, design)
+    B.apply_settings(bus, design, cal)
+    return cal
+
+
+def streamed_poses(emu, design, cal, since):
+    """Joint angles of every SYNC_WRITE goal the emulator received (decoded independently)."""
+    out = []
+    for sid, inst, params in emu.log[since:]:
+        if sid != 0xFE or inst != SYNC_WRITE:
+            continue
+        size = params[1]
+        raw = {}
+        for k in range(2, len(params) - size, size + 1):
+            raw[params[k]] = int.from_bytes(params[k + 1 : k + 3], "little")
+        ticks = [raw[1]] + [from_unsigned16(raw[i]) for i in range(2, 7)]
+        out.append(joint_from_motor(design, motor_from_ticks(design, ticks, cal.offsets)))
+    return np.array(out)
+
+
+def collides_on_the_way(design, rng):
+    """Two valid poses whose straight joint-space line is not valid (found by sampling)."""
+    while True:
+        a, b = rng.uniform(design.lower, design.upper, (2, 6))
+        if not handarm.is_valid(design, np.stack([a, b])).all():
+            continue
+        line = a + np.linspace(0, 1, 4001)[:, None] * (b - a)
+        if not handarm.is_valid(design, line).all():
+            return a, b
+
+
+def test_power_cycled_bent_arm_is_refused(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        bent = np.radians([0, 120, 0, 0, 0, 0])
+        B.goto(bus, design, cal, bent, rate=200.0)
+        emu.power_cycle()
+        before = len(emu.log)
+        with pytest.raises(B.ArmStateError, match="powered off since the calibration"):
+            B.goto(bus, design, cal, np.zeros(6))
+        assert writes(emu, before) == []
+        # a servo that kept its marker but lost its turn: the pose itself is refused
+        for servo in emu.servos.values():
+            servo.table[25] = 1
+        with pytest.raises(B.ArmStateError, match="present pose: joint \\d at .* outside"):
+            B.goto(bus, design, cal, np.zeros(6))
+        assert writes(emu, before) == []
+
+
+def test_unapplied_servos_and_preset_registers_are_refused(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = B.record_calibration(bus, design)  # never applied
+        before = len(emu.log)
+        with pytest.raises(B.ArmStateError, match="servo 2 cw_angle_limit: reads 0, apply"):
+            B.goto(bus, design, cal, np.radians([5, 0, 0, 0, 0, 0]))
+        assert writes(emu, before) == []
+        B.apply_settings(bus, design, cal)
+        bus.write(3, "resolution_divider", 2)
+        bus.write(4, "multi_turn_offset", 100)
+        before = len(emu.log)
+        with pytest.raises(B.ArmStateError) as info:
+            B.goto(bus, design, cal, np.radians([5, 0, 0, 0, 0, 0]))
+        assert "servo 3 resolution_divider: reads 2" in str(info.value)
+        assert "servo 4 multi_turn_offset: reads 100" in str(info.value)
+        assert writes(emu, before) == []
+
+
+def test_mismatched_calibration_is_refused(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        other = cal.__class__(**{**cal.__dict__, "offsets": (1900,) + cal.offsets[1:]})
+        before = len(emu.log)
+        with pytest.raises(B.ArmStateError, match="servo 1 cw_angle_limit: reads"):
+            B.goto(bus, design, other, np.zeros(6))
+        assert writes(emu, before) == []
+
+
+def test_apply_at_every_status_return_level_and_fixes_presets(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        emu.servos[2].table[16] = 1
+        emu.servos[5].table[16] = 0
+        emu.servos[3].table[22] = 2
+        emu.servos[4].table[20:22] = (100).to_bytes(2, "little")
+        settings = B.apply_settings(bus, design, None, max_torque_fraction=0.5)
+        for sid, regs in settings.items():
+            for name, value in regs.items():
+                assert emu.servos[sid].get(name) == value
+        assert all(emu.servos[s].get("max_torque") == 512 for s in range(1, 7))
+        assert all(emu.servos[s].get("torque_limit") == 512 for s in range(1, 7))
+        assert all(emu.servos[s].get("torque_enable") == 0 for s in range(1, 7))
+
+
+def test_apply_reports_what_was_written_before_a_failure(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        servo = emu.servos[3]
+        original = servo.write
+        servo.write = lambda addr, data: ERR_RANGE if addr == 14 else original(addr, data)
+        with pytest.raises(B.BusError) as info:
+            B.apply_settings(bus, design)
+        msg = str(info.value)
+        assert "servo 3: write max_torque" in msg
+        assert "written before the failure: servo 1 torque_enable=0" in msg
+        assert "servo 3 resolution_divider=1" in msg and "servo 3 max_torque" not in msg
+
+
+@pytest.mark.slow
+def test_goto_plans_around_a_collision_and_streams_valid_poses(design, rng):
+    a, b = collides_on_the_way(design, rng)
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        B.goto(bus, design, cal, a, rate=200.0)
+        before = len(emu.log)
+        B.goto(bus, design, cal, b, rate=200.0)
+        poses = streamed_poses(emu, design, cal, before)
+        assert len(poses) > 2
+        assert handarm.is_valid(design, poses).all()
+        # between streamed poses too (independent dense check, 0.02 degree steps)
+        dense = [
+            qa
+            + np.linspace(0, 1, int(np.abs(qb - qa).max() / np.radians(0.02)) + 2)[:, None]
+            * (qb - qa)
+            for qa, qb in zip(poses[:-1], poses[1:], strict=True)
+        ]
+        assert handarm.is_valid(design, np.concatenate(dense)).all()
+        tick = 2 * np.pi / 4096
+        np.testing.assert_allclose(
+            motor_from_joint(design, poses[-1]), motor_from_joint(design, b), atol=tick
+        )
+        # motor speed between periods stays within the limit (one tick of rounding)
+        from handarm.firmware_bridge.motion import MotionLimits
+
+        v = MotionLimits(design).velocity
+        steps = np.abs(motor_from_joint(design, np.diff(poses, axis=0))).max(axis=1)
+        assert steps.max() <= v / 200.0 + 2 * tick
+        # no path in the time given: refused, nothing sent
+        before = len(emu.log)
+        with pytest.raises(B.PlanningError, match="no collision-free path"):
+            B.goto(bus, design, cal, a, rate=200.0, timeout=1e-6)
+        assert writes(emu, before) == []
+
+
+def test_overheating_stops_the_move_and_holds(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        emu.servos[4].fault_after = (emu.servos[4].goals + 3, ERR_OVERHEAT)
+        with pytest.raises(B.ServoFault, match="servo 4 stopped the move: .*overheating"):
+            B.goto(bus, design, cal, np.radians([40, 30, 20, 10, 0, 0]), rate=100.0)
+        # held: every goal equals the present position
+        for servo in emu.servos.values():
+            assert servo.get("goal_position") == servo.get("present_position")
+
+
+def test_torque_and_stop(design):
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        ready(emu, bus, design)
+        B.set_torque(bus, design, True)
+        assert all(s.get("torque_enable") == 1 for s in emu.servos.values())
+        ticks = B.hold(bus, design)
+        assert [emu.servos[i].get("goal_position") for i in range(1, 7)] == [
+            t & 0xFFFF for t in ticks
+        ]
+        B.set_torque(bus, design, False)
+        assert all(s.get("torque_enable") == 0 for s in emu.servos.values())
+
+
+def test_duplicate_ids_wrong_baud_scan_and_setup(design):
+    with EmulatedBus(duplicates=[3]) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        with pytest.raises(B.BusError, match="two servos answer as ID 3"):
+            B.check_servos(bus, design)
+    with EmulatedBus() as emu, B.ServoBus(emu.port, 57_600, 100) as bus:
+        with pytest.raises(B.BusError, match="no servo answers at 57600 .*bridge scan"):
+            B.check_servos(bus, design)
+    with EmulatedBus(ids=[1], bauds={1: 57_600}) as emu:
+        found = B.scan(emu.port, [57_600, 1_000_000], range(0, 5), 100)
+        assert [(f["id"], f["baud"], f["model_number"]) for f in found] == [(1, 57_600, 310)]
+        result = B.setup_servo(emu.port, design, 4, [57_600, 1_000_000], range(0, 5), 100)
+        assert result == {"id": 4, "baud": 1_000_000, "was": {"id": 1, "baud": 57_600}}
+        servo = emu.servos[4]
+        assert servo.get("id") == 4 and servo.get("baud_rate") == 1
+
+
+def test_follow_loop_streams_valid_limited_steps(design, tmp_path):
+    from handarm.firmware_bridge.follow import TargetSource, follow
+    from handarm.firmware_bridge.motion import MotionLimits
+    from handarm.kinematics import forward
+
+    q_goal = np.radians([20, 30, -20, 10, 10, 0])
+    p, e = forward(design, q_goal)
+    lines = [json.dumps({"p": list(p), "e": list(e)})] * 3
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        before = len(emu.log)
+        stats = follow(
+            bus, design, cal, TargetSource(lines, paced=True), rate=100.0, max_periods=400
+        )
+        poses = streamed_poses(emu, design, cal, before)
+    assert stats["targets"] == 3 and len(poses) > 3
+    assert handarm.is_valid(design, poses).all()
+    v = MotionLimits(design).velocity
+    steps = np.abs(motor_from_joint(design, np.diff(poses, axis=0))).max(axis=1)
+    assert steps.max() <= v / 100.0 + 2 * 2 * np.pi / 4096
+    p_end, _ = forward(design, poses[-1])
+    assert np.linalg.norm(p_end - p) < 2e-3  # the tool reached the target
+
+
+def test_cli_exit_statuses(design, tmp_path, capsys):
+    def run(*argv):
+        code = main([str(a) for a in argv])
+        return code, capsys.readouterr()
+
+    with EmulatedBus(positions=START) as emu:
+        port = ["--port", emu.port, "--timeout", TIMEOUT]
+        cal = tmp_path / "cal.json"
+        assert run("bridge", "calibrate", *port, "--out", cal)[0] == 0
+        code, (out, err) = run(
+            "bridge", "goto", "5", "0", "0", "0", "0", "0", *port, "--calibration", cal
+        )
+        assert code == 4 and "run 'handarm bridge apply'" in err and "\n" not in err.strip()
+        assert run("bridge", "apply", *port, "--calibration", cal)[0] == 0
+        code, (out, err) = run(
+            "bridge", "goto", "5", "0", "0", "0", "0", "0", *port, "--calibration", cal
+        )
+        assert code == 0, err
+        emu.power_cycle()
+        code, (out, err) = run("bridge", "read", *port, "--calibration", cal)
+        assert code == 4 and "powered off" in err and "'handarm bridge calibrate'" in err
+        emu.silent.add(2)
+        code, (out, err) = run("bridge", "stop", *port)
+        assert code == 5 and "servo 2" in err
+    code, (out, err) = run(
+        "bridge", "goto", "170", "0", "0", "0", "0", "0", "--port", "x", "--calibration", cal
+    )
+    assert code == 2 and "q1" in err
+
+
+def test_ctrl_c_during_follow_holds_the_pose(design):
+    from handarm.firmware_bridge.follow import TargetSource, follow
+    from handarm.kinematics import forward
+
+    p, e = forward(design, np.radians([30, 40, -30, 20, 10, 0]))
+    lines = [json.dumps({"p": list(p), "e": list(e)})] * 50
+    calls = []
+
+    def interrupt(q):
+        calls.append(q)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        with pytest.raises(KeyboardInterrupt):
+            follow(bus, design, cal, TargetSource(lines, paced=True), on_period=interrupt)
+        for servo in emu.servos.values():
+            assert servo.get("goal_position") == servo.get("present_position")
+            assert servo.get("torque_enable") == 1
