@@ -2,7 +2,8 @@
 
 Exit statuses (one source: ``EXIT_CODES``, printed in the README's table):
 
-==== ==================================================================="""
+==== ===================================================================
+"""
 
 from __future__ import annotations
 
