@@ -186,3 +186,20 @@ def test_every_returned_range_is_collision_free_for_the_meshes(mesh_arm):
 
 def test_pairs_are_the_non_adjacent_ones():
     assert collision.LINK_PAIRS == PAIRS
+
+
+def test_serial_and_parallel_kernels_agree():
+    """Small batches run on the calling thread, large ones in parallel: the same answers."""
+    design = handarm.ArmDesign()
+    q = np.random.default_rng(9).uniform(design.lower, design.upper, (4096, 6))
+    whole = collision.collision_free(design, q)
+    parts = np.concatenate(
+        [collision.collision_free(design, q[i : i + 512]) for i in range(0, 4096, 512)]
+    )
+    np.testing.assert_array_equal(whole, parts)
+    pairs = collision.printed_collisions(design, q)
+    pairs_parts = np.concatenate(
+        [collision.printed_collisions(design, q[i : i + 512]) for i in range(0, 4096, 512)]
+    )
+    np.testing.assert_array_equal(pairs, pairs_parts)
+    np.testing.assert_array_equal(whole, ~pairs.any(axis=1))

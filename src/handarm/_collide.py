@@ -383,23 +383,37 @@ def collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion):
 
 @nb.njit(parallel=True, **JIT)
 def colliding_many(Q, a, pi, pf, groups, lp_groups, rows, c, out):
-    """colliding_link_pairs for every row of Q (N, 6) into out (N, 15)."""
+    """colliding_link_pairs for every row of Q (N, 6) into out (N, 15), in parallel."""
     n = Q.shape[0]
     block = 256
     for b in nb.prange((n + block - 1) // block):
-        frames, xy, stamp, coef, motion = scratch(pi.shape[0])
-        for i in range(b * block, min(n, (b + 1) * block)):
-            colliding_link_pairs(
-                Q[i], a, pi, pf, groups, lp_groups, rows, c, frames, xy, stamp, coef, motion, out[i]
-            )
+        colliding_rows(
+            Q, a, pi, pf, groups, lp_groups, rows, c, out, b * block, min(n, (b + 1) * block)
+        )
+
+
+@nb.njit(**JIT)
+def colliding_rows(Q, a, pi, pf, groups, lp_groups, rows, c, out, start, stop):
+    """colliding_link_pairs for rows start..stop of Q, on this thread."""
+    frames, xy, stamp, coef, motion = scratch(pi.shape[0])
+    for i in range(start, stop):
+        colliding_link_pairs(
+            Q[i], a, pi, pf, groups, lp_groups, rows, c, frames, xy, stamp, coef, motion, out[i]
+        )
 
 
 @nb.njit(parallel=True, **JIT)
 def free_many(Q, a, pi, pf, groups, rows, c, out):
-    """out[i] = no link pair collides at Q[i]."""
+    """out[i] = no link pair collides at Q[i], in parallel."""
     n = Q.shape[0]
     block = 256
     for b in nb.prange((n + block - 1) // block):
-        frames, xy, stamp, coef, motion = scratch(pi.shape[0])
-        for i in range(b * block, min(n, (b + 1) * block)):
-            out[i] = not collides(Q[i], a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion)
+        free_rows(Q, a, pi, pf, groups, rows, c, out, b * block, min(n, (b + 1) * block))
+
+
+@nb.njit(**JIT)
+def free_rows(Q, a, pi, pf, groups, rows, c, out, start, stop):
+    """out[i] = no link pair collides at Q[i], for rows start..stop, on this thread."""
+    frames, xy, stamp, coef, motion = scratch(pi.shape[0])
+    for i in range(start, stop):
+        out[i] = not collides(Q[i], a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion)

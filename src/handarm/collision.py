@@ -50,6 +50,9 @@ BASE, TIP = 0, 1
 #: Merge two pieces of one frame when the merged cover is at most this times the larger.
 _MERGE = 1.1
 _MM = 1e-3
+#: Batches smaller than this are checked on the calling thread (the parallel kernels' thread
+#: pool costs tens of milliseconds to wake on a busy machine).
+_PARALLEL_FROM = 2048
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
@@ -368,7 +371,10 @@ def collision_free(design: ArmDesign, q) -> np.ndarray:
     flat = np.ascontiguousarray(q.reshape(-1, 6))
     out = np.empty(len(flat), np.bool_)
     pi, pf, groups, _, rows, c = kernel_env(design)
-    _collide.free_many(flat, design.lengths, pi, pf, groups, rows, c, out)
+    if len(flat) < _PARALLEL_FROM:  # waking the thread pool costs more than a few poses
+        _collide.free_rows(flat, design.lengths, pi, pf, groups, rows, c, out, 0, len(flat))
+    else:
+        _collide.free_many(flat, design.lengths, pi, pf, groups, rows, c, out)
     return out.reshape(q.shape[:-1])
 
 
@@ -379,7 +385,10 @@ def printed_collisions(design: ArmDesign, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     flat = np.ascontiguousarray(q.reshape(-1, 6))
     out = np.empty((len(flat), 15), np.bool_)
-    _collide.colliding_many(flat, design.lengths, *kernel_env(design), out)
+    if len(flat) < _PARALLEL_FROM:
+        _collide.colliding_rows(flat, design.lengths, *kernel_env(design), out, 0, len(flat))
+    else:
+        _collide.colliding_many(flat, design.lengths, *kernel_env(design), out)
     return out.reshape(q.shape[:-1] + (15,))
 
 
