@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from handarm.design import ArmDesign
-from handarm.ik.degrade import degrade_target
+from handarm.ik.degrade import ORDERS, degrade_target
 from handarm.ik.exact import _exact, check_inputs
 from handarm.ik.results import IKResult
 
@@ -17,6 +17,7 @@ def solve(
     current=None,
     *,
     degrade: bool = True,
+    order: str = "paper",
 ) -> IKResult:
     """Every solution range of the target (p, e), or the closest reachable pose.
 
@@ -33,6 +34,11 @@ def solve(
     degrade : bool
         When no 5-DoF solution exists, return the closest reachable pose (4, 3 or 2 DoF)
         instead of an empty result.
+    order : {"paper", "angle"}
+        Order of the degradation levels. "paper": 4 DoF (pitch or yaw of ``e`` kept), then
+        3 DoF (best direction), then 2 DoF; keeping pitch or yaw can cost more angle than
+        the best direction. "angle" (smallest angle first): the reachable direction
+        closest to ``e``, reported as level 4 when it keeps pitch or yaw.
 
     Returns
     -------
@@ -45,8 +51,12 @@ def solve(
     ValueError
         If ``p``, ``e`` or ``current`` has the wrong shape, is not finite, or ``e`` is zero.
     """
+    if order not in ORDERS:
+        raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
+    if not isinstance(degrade, bool):
+        raise ValueError(f"degrade: expected True or False, got {degrade!r}")
     p, e, current = check_inputs(design, p, e, current)
     result = _exact(design, p, e, current)
     if result.count or not degrade:
         return result
-    return degrade_target(design, p, e, current)
+    return degrade_target(design, p, e, current, order)
