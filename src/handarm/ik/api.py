@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from handarm.design import ArmDesign
 from handarm.ik.degrade import ORDERS, degrade_target
 from handarm.ik.exact import _exact, check_inputs
@@ -49,7 +53,9 @@ def solve(
     TypeError
         If ``design`` is not an ArmDesign.
     ValueError
-        If ``p``, ``e`` or ``current`` has the wrong shape, is not finite, or ``e`` is zero.
+        If ``p``, ``e`` or ``current`` has the wrong shape, is not finite, or ``e`` is zero;
+        if ``p`` lies beyond 100 x the arm's reach or ``current`` beyond +-2 pi (units
+        mistaken); if ``order`` or ``degrade`` is not one of its values.
     """
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
@@ -57,6 +63,22 @@ def solve(
         raise ValueError(f"degrade: expected True or False, got {degrade!r}")
     p, e, current = check_inputs(design, p, e, current)
     result = _exact(design, p, e, current)
-    if result.count or not degrade:
-        return result
-    return degrade_target(design, p, e, current, order)
+    if not (result.count or not degrade):
+        result = degrade_target(design, p, e, current, order)
+    _check_finite(result)
+    return result
+
+
+def _check_finite(result: IKResult) -> None:
+    """No NaN leaves ``solve``: a non-finite number here is a bug, never the user's input."""
+    parts = [
+        result.solutions,
+        result.intervals,
+        result.achieved_position,
+        result.achieved_direction,
+    ]
+    if result.follow is not None:
+        parts.append(result.follow)
+    scalars = (result.position_error, result.direction_error, result.azimuth)
+    if not (all(np.all(np.isfinite(x)) for x in parts) and all(map(math.isfinite, scalars))):
+        raise RuntimeError("IK: non-finite number in the result (please report this target)")

@@ -238,11 +238,15 @@ def _circle_candidates(design, p, e, current) -> list[np.ndarray]:
         c = math.cos(pitch)
         return np.stack([c * np.cos(ph), c * np.sin(ph), np.full_like(ph, math.sin(pitch))], -1)
 
-    cands = [along_pitch(np.array([t]))[0] for t in closest_direction_on_circle(
-        design, p, along_pitch, pitch)]
+    cands = [
+        along_pitch(np.array([t]))[0]
+        for t in closest_direction_on_circle(design, p, along_pitch, pitch)
+    ]
     if math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
-        cands += [along_yaw(np.array([t]))[0] for t in closest_direction_on_circle(
-            design, p, along_yaw, yaw)]
+        cands += [
+            along_yaw(np.array([t]))[0]
+            for t in closest_direction_on_circle(design, p, along_yaw, yaw)
+        ]
     return cands
 
 
