@@ -190,3 +190,42 @@ def test_batch_widens_instead_of_truncating(paper, monkeypatch):
     for i in range(len(P)):
         r = ik.solve(paper, P[i], E[i])
         np.testing.assert_allclose(b.intervals[i, : b.counts[i]], r.intervals, atol=1e-12)
+
+
+def test_follow_is_nearest_in_range_configuration(paper):
+    """follow against dense sampling of every range (Euclidean joint distance)."""
+    rng = np.random.default_rng(21)
+    q = valid_configurations(paper, rng, 12)
+    for k in range(len(q)):
+        p, e = handarm.forward(paper, q[k])
+        current = np.clip(q[k] + rng.normal(scale=0.4, size=6), paper.lower, paper.upper)
+        r = ik.solve(paper, p, e, current=current)
+        best = math.inf
+        for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+            u = np.linspace(lo, hi, 2001)[1:-1]
+            qs, ok = ik.configurations_along(paper, p, e, br, u, azimuth=r.azimuth)
+            qs = qs[ok & handarm.is_valid(paper, qs)]
+            if len(qs):
+                best = min(best, float(np.linalg.norm(qs - current, axis=1).min()))
+        got = float(np.linalg.norm(r.follow - current))
+        assert handarm.is_valid(paper, r.follow)
+        assert got <= best + 1e-6
+
+
+def test_near_vertical_noise_does_not_swing_the_tip_plane(paper):
+    """Tilting a vertical e by 1e-6 rad in any azimuth moves follow by a tiny amount."""
+    q = np.radians([20, 30, -30, 60, 40, -10])
+    p = handarm.forward(paper, q)[0]
+    r0 = ik.solve(paper, p, [0, 0, 1], current=q)
+    assert r0.count > 0
+    current = r0.follow
+    rng = np.random.default_rng(2)
+    for az in rng.uniform(-math.pi, math.pi, 40):
+        tilt = 1e-6
+        e = np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)])
+        r = ik.solve(paper, p, e, current=current)
+        assert r.reached_dof == 5
+        assert r.direction_error <= 2 * tilt + 1e-12
+        assert abs(r.achieved_direction[2] - e[2]) < 1e-12  # elevation kept exactly
+        assert np.abs(r.follow - current).max() < 1e-4
+        current = r.follow

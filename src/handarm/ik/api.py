@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from handarm.design import ArmDesign
+from handarm.ik._common import wrap
 from handarm.ik.degrade import ORDERS, degrade_target
 from handarm.ik.exact import _exact, check_inputs
 from handarm.ik.results import IKResult
@@ -33,8 +35,11 @@ def solve(
     e : array-like, shape (3,)
         Tool direction; normalised here (a zero vector is an error).
     current : array-like, shape (6,), optional
-        The arm's present configuration (rad): solutions are sorted by distance to it, a
-        vertical ``e`` uses its azimuth, and degraded answers stay near it.
+        The arm's present configuration (rad, within +-2 pi): solutions are sorted by
+        distance to it, a vertical ``e`` uses its azimuth, degraded answers stay near it,
+        and ``follow`` is the in-range configuration nearest it. An ``e`` within
+        VERTICAL_CONE (1e-3 rad) of vertical is reached in current's tip plane: exact
+        elevation, ``direction_error`` at most 2e-3 rad, no swing of the tip plane.
     degrade : bool
         When no 5-DoF solution exists, return the closest reachable pose (4, 3 or 2 DoF)
         instead of an empty result.
@@ -62,11 +67,37 @@ def solve(
     if not isinstance(degrade, bool):
         raise ValueError(f"degrade: expected True or False, got {degrade!r}")
     p, e, current = check_inputs(design, p, e, current)
-    result = _exact(design, p, e, current)
+    result = _near_vertical(design, p, e, current)
+    if result is None:
+        result = _exact(design, p, e, current)
     if not (result.count or not degrade):
         result = degrade_target(design, p, e, current, order)
     _check_finite(result)
     return result
+
+
+#: With ``current``, a direction within this angle (rad) of straight up/down is reached with
+#: the tip plane of ``current`` (its elevation kept exactly, the azimuth of its tiny
+#: horizontal part relaxed): that azimuth is sensor noise there, and following it would
+#: swing the tip plane around.
+VERTICAL_CONE = 1e-3
+
+
+def _near_vertical(design: ArmDesign, p, e, current) -> IKResult | None:
+    """The tolerance-cone answer for a near-vertical e with ``current`` (None otherwise)."""
+    h = math.hypot(e[0], e[1])
+    if current is None or h == 0.0 or h >= math.sin(VERTICAL_CONE):
+        return None
+    psi = float(wrap(current[0] + current[1] + current[2]))
+    # the tip plane of current, on the side nearer e's horizontal part
+    if math.cos(math.atan2(e[1], e[0]) - psi) < 0.0:
+        psi += math.pi
+    v = np.array([h * math.cos(psi), h * math.sin(psi), e[2]])
+    r = _exact(design, p, v, current)
+    if r.count == 0:
+        return None
+    err = 2.0 * math.atan2(float(np.linalg.norm(v - e)), float(np.linalg.norm(v + e)))
+    return dataclasses.replace(r, direction_error=err)
 
 
 def _check_finite(result: IKResult) -> None:

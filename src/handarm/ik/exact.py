@@ -176,30 +176,60 @@ def _exact(design: ArmDesign, p: np.ndarray, e: np.ndarray, current) -> IKResult
     return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy(), follow)
 
 
+#: Samples of u per range in the search for the configuration nearest ``current``; the best
+#: sample's neighbourhood is then refined by golden-section search.
+_FOLLOW_SAMPLES = 33
+_FOLLOW_REFINE = 40
+
+
 def follow_configuration(
     design, p, e, solutions, branches, intervals, current, azimuth
 ) -> np.ndarray:
     """The configuration inside the given ranges nearest to ``current``, shape (6,).
 
-    For each range, joint 4 goes to where ``current`` has it (projected onto L), clamped to
-    the range (a hair inside its ends); the nearest of those configurations and of the
-    range midpoints ``solutions`` in joint space wins.
+    Distance is Euclidean in joint space (rad). Along each range the joint angles are a
+    smooth function of u: the distance is sampled at ``_FOLLOW_SAMPLES`` points (a hair
+    inside the ends) and the best sample refined by golden-section search between its
+    neighbours; the range midpoints ``solutions`` are candidates too. Only configurations
+    passing ``is_valid`` are returned.
     """
-    j4 = joint_positions(design, current)[4, :2]
     best = solutions[nearest_solution(solutions, current)]
     best_dist = float(np.sum((best - current) ** 2))
     a = design.lengths
     q = np.empty(6)
     for br, (lo, hi) in zip(branches, intervals, strict=True):
         dx, dy = _line_direction(p, e, br[0], azimuth)
-        u = (j4[0] - p[0]) * dx + (j4[1] - p[1]) * dy
         margin = min(1e-7, 0.25 * (hi - lo))
-        u = min(max(u, lo + margin), hi - margin)
-        if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+        us = np.linspace(lo + margin, hi - margin, _FOLLOW_SAMPLES)
+        qs = np.zeros((len(us), 6))
+        ok = np.zeros(len(us), np.bool_)
+        K.configurations_along_u(p, e, dx, dy, us, float(br[1]), float(br[2]), a, qs, ok)
+        dist = np.where(ok, np.sum((qs - current) ** 2, axis=1), np.inf)
+        k = int(np.argmin(dist))
+        if not math.isfinite(dist[k]):
             continue
-        dist = float(np.sum((q - current) ** 2))
-        if dist < best_dist and is_valid(design, q):
-            best, best_dist = q.copy(), dist
+
+        def f(u, br=br, dx=dx, dy=dy):
+            if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+                return math.inf
+            return float(np.sum((q - current) ** 2))
+
+        x0, x1 = us[max(k - 1, 0)], us[min(k + 1, len(us) - 1)]
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
+        fc, fd = f(c), f(d)
+        for _ in range(_FOLLOW_REFINE):
+            if fc <= fd:
+                x1, d, fd = d, c, fc
+                c = x1 - g * (x1 - x0)
+                fc = f(c)
+            else:
+                x0, c, fc = c, d, fd
+                d = x0 + g * (x1 - x0)
+                fd = f(d)
+        for u in (us[k], c):
+            if f(u) < best_dist and is_valid(design, q):
+                best, best_dist = q.copy(), f(u)
     return best
 
 
