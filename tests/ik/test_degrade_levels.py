@@ -229,3 +229,17 @@ def test_near_vertical_noise_does_not_swing_the_tip_plane(paper):
         assert abs(r.achieved_direction[2] - e[2]) < 1e-12  # elevation kept exactly
         assert np.abs(r.follow - current).max() < 1e-4
         current = r.follow
+
+
+def test_straight_arm_is_an_exact_single_point(paper):
+    """The straight arm's pose has one configuration: a zero-length range at level 5."""
+    p, e = handarm.forward(paper, np.zeros(6))
+    r = ik.solve(paper, p, e)
+    assert r.reached_dof == 5
+    assert r.position_error == 0.0 and r.direction_error == 0.0
+    assert r.count >= 1
+    np.testing.assert_allclose(r.intervals[:, 0], r.intervals[:, 1])
+    p2, e2 = handarm.forward(paper, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9)
+    np.testing.assert_allclose(e2, np.broadcast_to(e, e2.shape), atol=1e-9)
+    assert handarm.is_valid(paper, r.solutions).all()

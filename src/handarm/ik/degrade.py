@@ -256,14 +256,17 @@ def degrade_target(
     """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
+    reaching = _configs_reaching(design, p, current)
+    seeds = [forward(design, q)[1] for q in reaching]
+    for q, v in zip(reaching, seeds, strict=True):
+        if float(_angle(v, e)) < 1e-9:
+            return _single_point(design, q, p, e, 5, 0.0, current)
     if order == "paper":
         result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
         if result is not None:
             return result
-        seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
         result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
     else:
-        seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
         seeds += _circle_candidates(design, p, e, current)
         result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
         if result is not None and keeps(e, result.achieved_direction):
@@ -361,17 +364,31 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
                 direction_error=float(_angle(aim, e)),
                 follow=r.follow if current is not None else None,
             )
-    branch, u = S.branch_of(design, best_q)
+    return _single_point(design, best_q, p, e, 2, best_err, current)
+
+
+def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
+    """A solution set of one configuration q: a zero-length range [u, u].
+
+    At level 5 this is a degenerate exact solution (the straight arm, joints pinned at
+    their limits) that the range solver, which classifies open gaps between events, cannot
+    see; ``achieved_direction`` is then e itself.
+    """
+    branch, u = S.branch_of(design, q)
+    p_reached, e_reached = forward(design, q)
+    if dof == 5:
+        p_reached, e_reached = p.copy(), e.copy()
+    psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
     return IKResult(
-        best_q[None, :],
+        q[None, :],
         branch[None, :],
         np.array([[u, u]]),
-        2,
-        best_err,
-        float(_angle(e_reached, e)),
-        False,
-        0.0,
+        dof,
+        position_error,
+        0.0 if dof == 5 else float(_angle(e_reached, e)),
+        math.hypot(e_reached[0], e_reached[1]) < S.VERTICAL_EPS,
+        psi if branch[0] > 0 else psi - math.copysign(math.pi, psi),
         p_reached.copy(),
         e_reached.copy(),
-        best_q.copy() if current is not None else None,
+        q.copy() if current is not None else None,
     )
