@@ -256,21 +256,20 @@ def degrade_target(
     """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
-    reaching = _configs_reaching(design, p, current)
-    seeds = [forward(design, q)[1] for q in reaching]
-    for q, v in zip(reaching, seeds, strict=True):
-        if float(_angle(v, e)) < 1e-9:
+    # degenerate exact poses (the straight arm): the stretched arm aimed at p, polished
+    for q in _configs_reaching(design, p, current, cloud=False):
+        if float(_angle(forward(design, q)[1], e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
     if order == "paper":
         result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
         if result is not None:
             return result
-        result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
-    else:
+    seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
+    if order == "angle":
         seeds += _circle_candidates(design, p, e, current)
-        result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
-        if result is not None and keeps(e, result.achieved_direction):
-            result = dataclasses.replace(result, reached_dof=4)
+    result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
+    if order == "angle" and result is not None and keeps(e, result.achieved_direction):
+        result = dataclasses.replace(result, reached_dof=4)
     if result is None:
         result = _two_dof(design, p, e, current)
     return result
@@ -316,23 +315,23 @@ def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
     return q
 
 
-def _seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
+def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> list[np.ndarray]:
     """Valid starting configurations: the stretched arm aimed at p, current, cloud points."""
     q1 = float(np.clip(math.atan2(p[1], p[0]), design.lower[0], design.upper[0]))
     q4 = float(np.clip(math.atan2(p[2], math.hypot(p[0], p[1])), design.lower[3], design.upper[3]))
     seeds = [np.clip(np.array([q1, 0.0, 0.0, q4, 0.0, 0.0]), design.lower, design.upper)]
     if current is not None:
         seeds.append(np.clip(current, design.lower, design.upper))
-    cloud_q, cloud_p = _position_cloud(design)
+    cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
     if len(cloud_q):
         seeds.extend(cloud_q[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[:_SEEDS]])
     return [q for q in seeds if is_valid(design, q)]
 
 
-def _configs_reaching(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
+def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> list[np.ndarray]:
     """Valid configurations whose tool point is p (to 1e-9 m), from polished seeds."""
     out = []
-    for q0 in _seeds(design, p, current):
+    for q0 in _seeds(design, p, current, cloud):
         q = _polish(design, q0, p)
         if np.linalg.norm(forward(design, q)[0] - p) < 1e-9:
             out.append(q)
