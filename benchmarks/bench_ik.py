@@ -1,6 +1,7 @@
 """IK speed and success: handarm against its peers, on the same targets, in one run.
 
     python benchmarks/bench_ik.py [--targets 2000] [--batch 200000] [--peer-targets 200]
+                                  [--degrade 30] [--only-degrade]
 
 Targets are forward kinematics of random valid configurations of the paper's arm (valid
 under the printed-link collision model, the default; the paper's segment model is measured
@@ -187,6 +188,101 @@ def bench_eaik(design, P, E, sweeps=(8, 128)):
     return out
 
 
+def degrade_targets(design, n, seed=1):
+    """Targets that need each degradation level (dict level -> (P, E)), n of each if found.
+
+    Levels 4 and 3: tool points of valid configurations (some pushed 6% outwards, towards
+    the reach sphere) with random directions and no exact solution; level 2: points 10-50%
+    beyond the reach of the stretched arm.
+    """
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(design.lower, design.upper, (40 * n + 400, 6))
+    q = q[handarm.is_valid(design, q)]
+    p = handarm.forward(design, q)[0]
+    p[::2] *= 1.06
+    e = rng.normal(size=p.shape)
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    none = np.flatnonzero(ik.count_solutions(design, p, e) == 0)
+    out = {4: ([], []), 3: ([], [])}
+    for i in none[: 20 * n]:  # bounded: level 3 is rare
+        lvl = ik.solve(design, p[i], e[i]).reached_dof
+        if lvl in out and len(out[lvl][0]) < n:
+            out[lvl][0].append(p[i])
+            out[lvl][1].append(e[i])
+        if min(len(v[0]) for v in out.values()) >= n:
+            break
+    far = rng.normal(size=(n, 3))
+    far /= np.linalg.norm(far, axis=1, keepdims=True)
+    far *= float(np.sum(design.lengths)) * rng.uniform(1.1, 1.5, (n, 1))
+    out[2] = (list(far), list(rng.normal(size=(n, 3))))
+    return {
+        k: (np.array(v[0]).reshape(-1, 3), np.array(v[1]).reshape(-1, 3)) for k, v in out.items()
+    }
+
+
+def bench_degrade(n):
+    """Per-level latency of solve(..., degrade=True), the first-call cost, and tracking."""
+    design = handarm.ArmDesign()
+    t = time.perf_counter()
+    ik.solve(design, [0.5, 0.0, 0.0], [1.0, 0.0, 0.0])  # builds the per-design caches
+    first = time.perf_counter() - t
+    print(f"degradation, paper's arm: first degraded call {first * 1e3:.0f} ms (per-design setup)")
+    print(
+        f"{'level':<8} {'targets':>8} {'p50 ms':>10} {'p90 ms':>10} {'worst ms':>10}"
+        "  exact solve p50"
+    )
+    P0, E0 = targets(design, 200, seed=3)
+    exact = []
+    for p, e in zip(P0, E0, strict=True):
+        t = time.perf_counter()
+        ik.solve(design, p, e, degrade=False)
+        exact.append(time.perf_counter() - t)
+    for level, (P, E) in sorted(degrade_targets(design, n).items(), reverse=True):
+        lat = []
+        for p, e in zip(P, E, strict=True):
+            t = time.perf_counter()
+            r = ik.solve(design, p, e)
+            lat.append(time.perf_counter() - t)
+            assert r.reached_dof == level or level == 2, (level, r.reached_dof)
+        if not lat:
+            print(f"{level:<8} {0:>8}")
+            continue
+        lat = np.array(lat) * 1e3
+        print(
+            f"{level:<8} {len(lat):>8} {np.median(lat):10.2f} {np.percentile(lat, 90):10.2f} "
+            f"{lat.max():10.2f}  {np.median(exact) * 1e6:.0f} us"
+        )
+    bench_tracking(design, n)
+
+
+def bench_tracking(design, n_paths, steps=60, step_m=0.002, seed=4):
+    """Random 2 mm-step paths from valid poses, followed with ``current``: joint steps."""
+    rng = np.random.default_rng(seed)
+    q0 = rng.uniform(design.lower, design.upper, (20 * n_paths, 6))
+    q0 = q0[handarm.is_valid(design, q0)][:n_paths]
+    biggest, over = 0.0, 0
+    lat = []
+    for q in q0:
+        p, e = handarm.forward(design, q)
+        current = q
+        for _ in range(steps):
+            d = rng.normal(size=3)
+            p = p + step_m * d / np.linalg.norm(d)
+            t = time.perf_counter()
+            r = ik.solve(design, p, e, current=current)
+            lat.append(time.perf_counter() - t)
+            jump = float(np.abs(r.follow - current).max())
+            biggest = max(biggest, jump)
+            over += jump > math.radians(10)
+            current = r.follow
+    lat = np.array(lat) * 1e3
+    print(
+        f"tracking: {len(q0)} random paths x {steps} steps of {step_m * 1e3:g} mm: largest joint "
+        f"step {math.degrees(biggest):.1f} deg, {over} steps > 10 deg; "
+        f"p50 {np.median(lat):.2f} ms, worst {lat.max():.1f} ms"
+    )
+
+
 def _cell(x, width, fmt):
     return f"{x:{width}{fmt}}" if x is not None else f"{'-':>{width}}"
 
@@ -196,7 +292,12 @@ def main():
     ap.add_argument("--targets", type=int, default=2000)
     ap.add_argument("--batch", type=int, default=200000)
     ap.add_argument("--peer-targets", type=int, default=200)
+    ap.add_argument("--degrade", type=int, default=30, help="targets per degradation level")
+    ap.add_argument("--only-degrade", action="store_true", help="only the degradation section")
     args = ap.parse_args()
+    if args.only_degrade:
+        bench_degrade(args.degrade)
+        return
     design = handarm.ArmDesign()
     P, E = targets(design, args.targets)
     pp, pe = P[: args.peer_targets], E[: args.peer_targets]
@@ -276,6 +377,7 @@ def main():
             f"handarm ({name}): mean solution ranges per target {r['mean_solutions']:.2f}; "
             f"batch success {r['batch_success']:.1%}"
         )
+    bench_degrade(args.degrade)
 
 
 if __name__ == "__main__":

@@ -24,9 +24,13 @@ def check_pose(design, r):
 
 
 def pitch_yaw_grid(p, e, design, step_deg=1.0):
-    """Smallest direction change found by a brute-force grid over pitch (yaw kept) and yaw."""
+    """Smallest direction change found by a brute-force grid over pitch (yaw kept) and yaw.
+
+    The grid is offset by half a step so that it never lands on straight up/down, where a
+    vertical direction would let L take any azimuth (keeping neither pitch nor yaw).
+    """
     pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
-    t = np.radians(np.arange(-180, 180, step_deg))
+    t = np.radians(np.arange(-180, 180, step_deg) + 0.5 * step_deg)
     along_pitch = np.stack([np.cos(t) * math.cos(yaw), np.cos(t) * math.sin(yaw), np.sin(t)], 1)
     along_yaw = np.stack(
         [

@@ -1,18 +1,29 @@
 """Graceful degradation (paper III-D).
 
-When a target (p, e) has no 5-DoF solution the closest reachable pose is returned:
+When a target (p, e) has no 5-DoF solution the closest reachable pose is returned. Each level
+keeps what its name says:
 
 4 DoF
-    p exact; either the pitch of e (its elevation, yaw kept: the tip plane stays) or its yaw
-    (azimuth, pitch kept) is relaxed, whichever needs the smaller change of direction.
+    p exact and exactly one of e's two angles kept: its yaw (azimuth, so the tip plane stays
+    and only the elevation changes) or its pitch (elevation; only the azimuth changes). The
+    search runs along the great circle of constant yaw and along the circle of constant
+    pitch; straight up/down lies on the first but leaves L's azimuth free, so it counts only
+    with L along e's yaw (its neighbours on the circle decide, not the free-azimuth solve).
 3 DoF
     p exact; the reachable direction closest to e.
 2 DoF
     p out of reach: the nearest reachable tool point, with the tool pointing at p when the
     arm can.
 
+Order: ``order="paper"`` (the paper's) tries 4, then 3, then 2; a level-4 answer can cost
+more angle than the best level-3 one, since keeping pitch or yaw is a constraint.
+``order="angle"`` ("smallest angle first") returns the reachable direction closest to e, and
+reports level 4 when that direction happens to keep pitch or yaw.
+
 Searches over directions are exact at their final step: a grid finds the solvable region
-closest to e and bisection pins its boundary, so the error is never worse than the grid's.
+closest to e and bisection pins its boundary to 1e-9 rad; the level-3 search also starts
+from directions of valid configurations that reach p (so small caps of solvable directions
+near the reach sphere are not missed) and slides along the boundary towards e.
 """
 
 from __future__ import annotations
@@ -29,22 +40,42 @@ from handarm.ik import exact as S
 from handarm.ik.results import IKResult
 from handarm.kinematics import forward, is_valid
 
-__all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction"]
+__all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction", "ORDERS"]
+
+#: Level orders ``solve(..., order=...)`` accepts.
+ORDERS = ("paper", "angle")
 
 _FINE_STEP = math.radians(0.25)
 _NEAR = math.radians(12.0)
-_BISECT = 48
+_BISECT_TOL = 1e-9  # rad: bisection stops when the bracket is this narrow
+#: A direction within this angle (rad) of straight up/down is moved off the pole along its
+#: circle, so that L's azimuth is the circle's and not the free one of a vertical e.
+_POLE = 1e-9
 _SPHERE = 2000
+_SEEDS = 8  # valid configurations near p polished as seeds (levels 3 and 2)
+#: A relaxed direction keeps e's pitch (or yaw) when it differs by less than this (rad).
+KEEP_TOL = 1e-9
 
 
 def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     dirs = np.atleast_2d(dirs)
-    return S.solve_batch(design, np.broadcast_to(p, dirs.shape).copy(), dirs).counts > 0
+    return S.count_solutions(design, np.broadcast_to(p, dirs.shape).copy(), dirs) > 0
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Angle between unit vectors, robust near 0 and pi."""
     return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+
+
+def _bisect(test, good: float, bad: float) -> float:
+    """The solvable end of [bad, good] nearest ``bad`` (``test(x)`` true at ``good``)."""
+    while abs(good - bad) > _BISECT_TOL:
+        mid = 0.5 * (good + bad)
+        if test(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
 
 
 def closest_direction_on_circle(design, p, make_dir, theta0):
@@ -62,7 +93,8 @@ def closest_direction_on_circle(design, p, make_dir, theta0):
     -------
     list of float
         The nearest solvable angle on each side of theta0 (none if the circle is unsolvable):
-        the first solvable grid angle going out, refined by bisection to the boundary.
+        the first solvable grid angle going out, refined by bisection to the boundary
+        (1e-9 rad).
     """
     found = []
     for side in (1.0, -1.0):
@@ -71,14 +103,11 @@ def closest_direction_on_circle(design, p, make_dir, theta0):
             ok = _solvable(design, p, make_dir(theta0 + offs))
             if ok.any():
                 k = int(np.argmax(ok))
-                good = offs[k]
-                bad = good - side * _FINE_STEP
-                for _ in range(_BISECT):
-                    mid = 0.5 * (good + bad)
-                    if _solvable(design, p, make_dir(np.array([theta0 + mid])))[0]:
-                        good = mid
-                    else:
-                        bad = mid
+                good = _bisect(
+                    lambda x: bool(_solvable(design, p, make_dir(np.array([theta0 + x])))[0]),
+                    offs[k],
+                    offs[k] - side * _FINE_STEP,
+                )
                 found.append(theta0 + good)
                 break
     return found
@@ -96,35 +125,35 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
     omega = float(_angle(a, b))
     if omega < 1e-15:
         return b.copy()
+    if omega > math.pi - 1e-9:  # antipodal: any great circle; take one through a helper axis
+        helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        ortho = np.cross(a, helper)
+        ortho /= np.linalg.norm(ortho)
+        th = t * omega
+        return math.cos(th) * a + math.sin(th) * ortho
     v = (math.sin((1 - t) * omega) * a + math.sin(t * omega) * b) / math.sin(omega)
     return v / np.linalg.norm(v)
 
 
-def closest_direction(design, p, e0):
+def closest_direction(design, p, e0, seeds=()):
     """Solvable directions near e0 for the tool point p, closest first (empty if none).
 
-    The three solvable samples of a Fibonacci sphere nearest e0 are each moved to the
-    boundary by bisection along the arc towards e0, then by a shrinking pattern search.
+    Solvable samples of a Fibonacci sphere nearest e0, and the solvable ``seeds`` (directions
+    of valid configurations reaching p), are each moved to the boundary by bisection along
+    the arc towards e0, then along the boundary by a shrinking pattern search.
     """
     sphere = _fibonacci_sphere(_SPHERE)
     ok = _solvable(design, p, sphere)
-    if not ok.any():
-        return []
     cand = sphere[ok]
-    ang = _angle(cand, e0)
+    seeds = np.asarray(seeds, float).reshape(-1, 3)
+    if len(seeds):
+        seeds = seeds[_solvable(design, p, seeds)]
+    order = np.argsort(_angle(cand, e0))[:3] if len(cand) else np.zeros(0, int)
+    starts = [cand[k] for k in order] + list(seeds)
     found = []
-    for k in np.argsort(ang)[:3]:
-        good = cand[k]
-        # bisection along the great circle from e0 (unsolvable) to the solvable sample
-        lo, hi = 0.0, 1.0
-        for _ in range(_BISECT):
-            mid = 0.5 * (lo + hi)
-            if _solvable(design, p, _slerp(e0, good, mid))[0]:
-                hi = mid
-            else:
-                lo = mid
-        good = _slerp(e0, good, hi)
-        found.append(_pattern_search(design, p, e0, good))
+    for good in starts:
+        t = _bisect(lambda x, g=good: bool(_solvable(design, p, _slerp(e0, g, x))[0]), 1.0, 0.0)
+        found.append(_pattern_search(design, p, e0, _slerp(e0, good, t)))
     found.sort(key=lambda v: float(_angle(v, e0)))
     return found
 
@@ -132,10 +161,9 @@ def closest_direction(design, p, e0):
 def _pattern_search(design, p, e0, good):
     """Move a solvable direction towards e0 by shrinking rings of trial directions."""
     step = math.radians(2.0)
-    ring = np.linspace(0, 2 * math.pi, 12, endpoint=False)
-    while step > 1e-7:
+    ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+    while step > 1e-8:
         a0 = float(_angle(good, e0))
-        # orthonormal frame around `good`
         t1 = np.cross(good, [0.0, 0.0, 1.0] if abs(good[2]) < 0.9 else [1.0, 0.0, 0.0])
         t1 /= np.linalg.norm(t1)
         t2 = np.cross(good, t1)
@@ -158,65 +186,90 @@ def _pitch_yaw(e: np.ndarray) -> tuple[float, float]:
     return math.asin(max(-1.0, min(1.0, e[2]))), math.atan2(e[1], e[0])
 
 
-#: With ``current``, a relaxed direction costs its angle plus this much per radian of joint
-#: motion (the largest joint change): a handheld user should not see the arm jump between
-#: two nearly equally good poses.
-JOINT_MOTION_WEIGHT = 0.5
+def keeps(e: np.ndarray, v: np.ndarray) -> str | None:
+    """What the relaxed direction v keeps of e: "yaw", "pitch" or None (within KEEP_TOL)."""
+    h_e, h_v = math.hypot(e[0], e[1]), math.hypot(v[0], v[1])
+    if h_e > KEEP_TOL and h_v > KEEP_TOL:
+        # same vertical plane (v may point the other way across the pole: same tip plane)
+        if abs(e[0] * v[1] - e[1] * v[0]) / (h_e * h_v) < KEEP_TOL:
+            return "yaw"
+    if abs(v[2] - e[2]) < KEEP_TOL:
+        return "pitch"
+    return None
 
 
-def _choose(design, p, e, candidates, dof, current) -> IKResult:
-    """The best relaxed direction among candidates, as an IKResult at level ``dof``."""
-    best, best_score = None, math.inf
+def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
+    """The relaxed direction closest to e among candidates, as an IKResult at level ``dof``.
+
+    Ties (within 1e-9 rad) go to the candidate whose follow configuration is nearest
+    ``current``.
+    """
+    scored = []
     for v in candidates:
         r = S.solve_exact(design, p, v, current)
         if r.count == 0:
             continue
         err = float(_angle(v, e))
-        score = err
-        if current is not None:
-            score += JOINT_MOTION_WEIGHT * float(np.max(np.abs(r.follow - current)))
-        if score < best_score:
-            best, best_score = (
-                dataclasses.replace(
-                    r, reached_dof=dof, direction_error=err, achieved_direction=v.copy()
-                ),
-                score,
-            )
-    return best
+        motion = 0.0 if current is None else float(np.linalg.norm(r.follow - current))
+        scored.append((round(err / 1e-9), motion, err, v, r))
+    if not scored:
+        return None
+    scored.sort(key=lambda s: (s[0], s[1]))
+    _, _, err, v, r = scored[0]
+    return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
-def degrade_target(design: ArmDesign, p: np.ndarray, e: np.ndarray, current=None) -> IKResult:
-    """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
+def _circle_candidates(design, p, e, current) -> list[np.ndarray]:
+    """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle)."""
     pitch, yaw = _pitch_yaw(e)
+    if math.hypot(e[0], e[1]) < KEEP_TOL:  # vertical e: its "yaw" is L's azimuth
+        yaw = S._azimuth(p, e, current)[1]
 
     def along_pitch(th):
-        # the full vertical great circle through e: the tip plane is kept
-        return np.stack(
-            [np.cos(th) * math.cos(yaw), np.cos(th) * math.sin(yaw), np.sin(th)], axis=-1
-        )
+        # the full vertical great circle through e: the tip plane is kept; points on the
+        # pole move off it along the circle, so L keeps e's yaw
+        th = np.asarray(th, float)
+        c = np.cos(th)
+        c = np.where(np.abs(c) < _POLE, np.where(c >= 0, _POLE, -_POLE), c)
+        s = np.sign(np.sin(th)) * np.sqrt(1.0 - c * c)
+        return np.stack([c * math.cos(yaw), c * math.sin(yaw), s], axis=-1)
 
     def along_yaw(ph):
         c = math.cos(pitch)
         return np.stack([c * np.cos(ph), c * np.sin(ph), np.full_like(ph, math.sin(pitch))], -1)
 
-    candidates = [
+    cands = [
         along_pitch(np.array([t]))[0]
         for t in closest_direction_on_circle(design, p, along_pitch, pitch)
     ]
-    # straight up and down lie on every pitch circle; being vertical they leave L's azimuth
-    # free, so they can be solvable where their neighbours on the circle are not
-    for up in (1.0, -1.0):
-        v = np.array([0.0, 0.0, up])
-        if _solvable(design, p, v)[0]:
-            candidates.append(v)
-    if math.cos(pitch) > 1e-9:  # a vertical e has no yaw to relax
-        candidates += [
+    if math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
+        cands += [
             along_yaw(np.array([t]))[0]
             for t in closest_direction_on_circle(design, p, along_yaw, yaw)
         ]
-    result = _choose(design, p, e, candidates, 4, current)
-    if result is None:
-        result = _choose(design, p, e, closest_direction(design, p, e), 3, current)
+    return cands
+
+
+def degrade_target(
+    design: ArmDesign, p: np.ndarray, e: np.ndarray, current=None, order: str = "paper"
+) -> IKResult:
+    """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
+    if order not in ORDERS:
+        raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
+    # degenerate exact poses (the straight arm): the stretched arm aimed at p, polished
+    for q in _configs_reaching(design, p, current, cloud=False):
+        if float(_angle(forward(design, q)[1], e)) < 1e-9:
+            return _single_point(design, q, p, e, 5, 0.0, current)
+    if order == "paper":
+        result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
+        if result is not None:
+            return result
+    seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
+    if order == "angle":
+        seeds += _circle_candidates(design, p, e, current)
+    result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
+    if order == "angle" and result is not None and keeps(e, result.achieved_direction):
+        result = dataclasses.replace(result, reached_dof=4)
     if result is None:
         result = _two_dof(design, p, e, current)
     return result
@@ -231,36 +284,68 @@ def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
     return q, forward(design, q)[0]
 
 
-def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
-    """Nearest reachable tool point; the tool points at p when the arm can."""
-    seeds = []
-    # the stretched arm aimed at p: only joints 1 and 4 move (paper III-D)
+def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """A valid configuration near q0 whose tool point is nearer p (q0 itself is valid).
+
+    Bounded least squares ignores collisions; where its answer collides, the last valid
+    point on the joint-space segment from q0 is kept and the fit restarted from there.
+    """
+    q = q0
+    for _ in range(4):
+        fit = least_squares(
+            lambda x: forward(design, x)[0] - p,
+            q,
+            bounds=(design.lower - 1e-12, design.upper + 1e-12),
+            xtol=1e-12,
+            ftol=1e-12,
+        )
+        x = np.clip(fit.x, design.lower, design.upper)
+        if is_valid(design, x):
+            return x
+        lo, hi = 0.0, 1.0
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if is_valid(design, q + mid * (x - q)):
+                lo = mid
+            else:
+                hi = mid
+        if lo < 1e-9:
+            return q
+        q = q + lo * (x - q)
+    return q
+
+
+def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> list[np.ndarray]:
+    """Valid starting configurations: the stretched arm aimed at p, current, cloud points."""
     q1 = float(np.clip(math.atan2(p[1], p[0]), design.lower[0], design.upper[0]))
     q4 = float(np.clip(math.atan2(p[2], math.hypot(p[0], p[1])), design.lower[3], design.upper[3]))
-    stretched = np.array([q1, 0.0, 0.0, q4, 0.0, 0.0])
-    seeds.append(np.clip(stretched, design.lower, design.upper))
+    seeds = [np.clip(np.array([q1, 0.0, 0.0, q4, 0.0, 0.0]), design.lower, design.upper)]
     if current is not None:
         seeds.append(np.clip(current, design.lower, design.upper))
-    cloud_q, cloud_p = _position_cloud(design)
+    cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
     if len(cloud_q):
-        seeds.extend(cloud_q[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[:2]])
+        seeds.extend(cloud_q[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[:_SEEDS]])
+    return [q for q in seeds if is_valid(design, q)]
+
+
+def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> list[np.ndarray]:
+    """Valid configurations whose tool point is p (to 1e-9 m), from polished seeds."""
+    out = []
+    for q0 in _seeds(design, p, current, cloud):
+        q = _polish(design, q0, p)
+        if np.linalg.norm(forward(design, q)[0] - p) < 1e-9:
+            out.append(q)
+    return out
+
+
+def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
+    """Nearest reachable tool point; the tool points at p when the arm can."""
     best_q, best_err = None, math.inf
-    for q0 in seeds:
-        if not is_valid(design, q0):
-            continue
-        lo = design.lower - 1e-12
-        hi = design.upper + 1e-12
-        fit = least_squares(
-            lambda q: forward(design, q)[0] - p, q0, bounds=(lo, hi), xtol=1e-12, ftol=1e-12
-        )
-        for q in (fit.x, q0):
-            q = np.clip(q, design.lower, design.upper)
-            if not is_valid(design, q):
-                continue
-            err = float(np.linalg.norm(forward(design, q)[0] - p))
-            if err < best_err - 1e-12:
-                best_q, best_err = q, err
-            break
+    for q0 in _seeds(design, p, current):
+        q = _polish(design, q0, p)
+        err = float(np.linalg.norm(forward(design, q)[0] - p))
+        if err < best_err - 1e-12:
+            best_q, best_err = q, err
     if best_q is None:  # no valid seed at all: the zero pose is the fallback
         best_q = np.zeros(6)
         best_err = float(np.linalg.norm(forward(design, best_q)[0] - p))
@@ -278,17 +363,31 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
                 direction_error=float(_angle(aim, e)),
                 follow=r.follow if current is not None else None,
             )
-    branch, u = S.branch_of(design, best_q)
+    return _single_point(design, best_q, p, e, 2, best_err, current)
+
+
+def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
+    """A solution set of one configuration q: a zero-length range [u, u].
+
+    At level 5 this is a degenerate exact solution (the straight arm, joints pinned at
+    their limits) that the range solver, which classifies open gaps between events, cannot
+    see; ``achieved_direction`` is then e itself.
+    """
+    branch, u = S.branch_of(design, q)
+    p_reached, e_reached = forward(design, q)
+    if dof == 5:
+        p_reached, e_reached = p.copy(), e.copy()
+    psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
     return IKResult(
-        best_q[None, :],
+        q[None, :],
         branch[None, :],
         np.array([[u, u]]),
-        2,
-        best_err,
-        float(_angle(e_reached, e)),
-        False,
-        0.0,
+        dof,
+        position_error,
+        0.0 if dof == 5 else float(_angle(e_reached, e)),
+        math.hypot(e_reached[0], e_reached[1]) < S.VERTICAL_EPS,
+        psi if branch[0] > 0 else psi - math.copysign(math.pi, psi),
         p_reached.copy(),
         e_reached.copy(),
-        best_q.copy() if current is not None else None,
+        q.copy() if current is not None else None,
     )

@@ -73,12 +73,48 @@ def check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray
     """Checked float arrays (..., 3) of points and unit directions; ValueError naming them."""
     p = check_array(p, p_name, 3)
     e = check_array(e, e_name, 3)
-    norm = np.linalg.norm(e, axis=-1)
-    bad = norm < 1e-12
+    # scale by the largest component first: neither 1e154 (whose square overflows) nor
+    # 1e-13 (a tiny but perfectly good direction) is a problem then
+    big = np.max(np.abs(e), axis=-1, keepdims=True)
+    bad = big[..., 0] == 0.0
     if np.any(bad):
         where = "" if e.ndim == 1 else f"[{int(np.flatnonzero(bad.reshape(-1))[0])}]"
         raise ValueError(f"{e_name}{where}: direction has zero length")
-    return p, e / norm[..., None]
+    e = e / big
+    return p, e / np.linalg.norm(e, axis=-1, keepdims=True)
+
+
+#: A position farther than this many times the arm's reach (sum of link lengths) from joint 1
+#: is taken for a unit mistake (millimetres for metres) and rejected.
+REACH_FACTOR = 100.0
+#: Joint angles beyond this (rad) are taken for degrees passed as radians and rejected.
+MAX_JOINT_ANGLE = 2.0 * math.pi
+
+
+def check_scale(design: ArmDesign, p: np.ndarray, name: str = "p") -> None:
+    """ValueError naming ``name`` if a point lies beyond REACH_FACTOR x the arm's reach."""
+    reach = float(np.sum(design.lengths))
+    dist = np.linalg.norm(p / max(reach, 1e-300), axis=-1)
+    far = dist > REACH_FACTOR
+    if np.any(far):
+        where = "" if p.ndim == 1 else f"[{int(np.flatnonzero(far.reshape(-1))[0])}]"
+        raise ValueError(
+            f"{name}{where}: {float(np.max(dist)):.3g} x the arm's reach ({reach:g} m) away; "
+            f"positions are metres and must lie within {REACH_FACTOR:g} x the reach"
+        )
+
+
+def check_current(current, name: str = "current") -> np.ndarray:
+    """Joint angles (6,) in radians within +-MAX_JOINT_ANGLE; ValueError naming ``name``."""
+    current = check_joints(current, name)
+    if current.shape != (6,):
+        raise ValueError(f"{name}: expected shape (6,), got {current.shape}")
+    if np.any(np.abs(current) > MAX_JOINT_ANGLE):
+        raise ValueError(
+            f"{name}: joint angles are radians within +-2 pi; got "
+            f"{float(np.max(np.abs(current))):.4g} (degrees passed as radians?)"
+        )
+    return current
 
 
 def _azimuth(p: np.ndarray, e: np.ndarray, current: np.ndarray | None) -> tuple[bool, float]:
@@ -113,10 +149,9 @@ def check_inputs(design, p, e, current):
         raise ValueError(f"p: expected shape (3,), got {p.shape}")
     if e.shape != (3,):
         raise ValueError(f"e: expected shape (3,), got {e.shape}")
+    check_scale(design, p)
     if current is not None:
-        current = check_joints(current, "current")
-        if current.shape != (6,):
-            raise ValueError(f"current: expected shape (6,), got {current.shape}")
+        current = check_current(current)
     return p, e, current
 
 
@@ -140,30 +175,60 @@ def _exact(design: ArmDesign, p: np.ndarray, e: np.ndarray, current) -> IKResult
     return IKResult(sols, br, iv, 5, 0.0, 0.0, vertical, azimuth, p.copy(), e.copy(), follow)
 
 
+#: Samples of u per range in the search for the configuration nearest ``current``; the best
+#: sample's neighbourhood is then refined by golden-section search.
+_FOLLOW_SAMPLES = 33
+_FOLLOW_REFINE = 40
+
+
 def follow_configuration(
     design, p, e, solutions, branches, intervals, current, azimuth
 ) -> np.ndarray:
     """The configuration inside the given ranges nearest to ``current``, shape (6,).
 
-    For each range, joint 4 goes to where ``current`` has it (projected onto L), clamped to
-    the range (a hair inside its ends); the nearest of those configurations and of the
-    range midpoints ``solutions`` in joint space wins.
+    Distance is Euclidean in joint space (rad). Along each range the joint angles are a
+    smooth function of u: the distance is sampled at ``_FOLLOW_SAMPLES`` points (a hair
+    inside the ends) and the best sample refined by golden-section search between its
+    neighbours; the range midpoints ``solutions`` are candidates too. Only configurations
+    passing ``is_valid`` are returned.
     """
-    j4 = joint_positions(design, current)[4, :2]
     best = solutions[nearest_solution(solutions, current)]
     best_dist = float(np.sum((best - current) ** 2))
     a = design.lengths
     q = np.empty(6)
     for br, (lo, hi) in zip(branches, intervals, strict=True):
         dx, dy = _line_direction(p, e, br[0], azimuth)
-        u = (j4[0] - p[0]) * dx + (j4[1] - p[1]) * dy
         margin = min(1e-7, 0.25 * (hi - lo))
-        u = min(max(u, lo + margin), hi - margin)
-        if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+        us = np.linspace(lo + margin, hi - margin, _FOLLOW_SAMPLES)
+        qs = np.zeros((len(us), 6))
+        ok = np.zeros(len(us), np.bool_)
+        K.configurations_along_u(p, e, dx, dy, us, float(br[1]), float(br[2]), a, qs, ok)
+        dist = np.where(ok, np.sum((qs - current) ** 2, axis=1), np.inf)
+        k = int(np.argmin(dist))
+        if not math.isfinite(dist[k]):
             continue
-        dist = float(np.sum((q - current) ** 2))
-        if dist < best_dist and is_valid(design, q):
-            best, best_dist = q.copy(), dist
+
+        def f(u, br=br, dx=dx, dy=dy):
+            if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
+                return math.inf
+            return float(np.sum((q - current) ** 2))
+
+        x0, x1 = us[max(k - 1, 0)], us[min(k + 1, len(us) - 1)]
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
+        fc, fd = f(c), f(d)
+        for _ in range(_FOLLOW_REFINE):
+            if fc <= fd:
+                x1, d, fd = d, c, fc
+                c = x1 - g * (x1 - x0)
+                fc = f(c)
+            else:
+                x0, c, fc = c, d, fd
+                d = x0 + g * (x1 - x0)
+                fd = f(d)
+        for u in (us[k], c):
+            if f(u) < best_dist and is_valid(design, q):
+                best, best_dist = q.copy(), f(u)
     return best
 
 
@@ -201,8 +266,14 @@ def _check_batch(design: ArmDesign, P, E):
     P, E = check_target(P, E, "P", "E")
     if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
         raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
+    check_scale(design, P, "P")
     psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
     return P, E, psi
+
+
+def _check_chunk(chunk) -> None:
+    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
+        raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
 
 
 def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchResult:
@@ -220,25 +291,44 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
     -------
     BatchResult
         Vertical directions are handled as in ``solve`` without ``current``. No
-        degradation: a target without a 5-DoF solution has count 0.
+        degradation: a target without a 5-DoF solution has count 0. The arrays have
+        ``MAX_SOLUTIONS`` rows per target, more when some target has more ranges (never
+        truncated: ``counts`` equals ``count_solutions``).
 
     Raises
     ------
     ValueError
         If the targets are malformed or ``chunk`` is not an integer >= 1.
     """
-    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
-        raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
+    _check_chunk(chunk)
     P, E, psi = _check_batch(design, P, E)
+    counts, sols, br, iv, used = _batch_rows(design, P, E, psi, chunk, MAX_SOLUTIONS)
+    over = np.flatnonzero(counts > MAX_SOLUTIONS)
+    if len(over):
+        # a few targets of some designs have more ranges than the usual width: solve those
+        # again with room for all, so that no range is dropped (counts agree with
+        # count_solutions)
+        width = int(counts[over].max())
+        c2, s2, b2, i2, _ = _batch_rows(design, P[over], E[over], psi[over], chunk, width)
+        pad = width - MAX_SOLUTIONS
+        sols = np.concatenate([sols, np.full((len(P), pad, 6), np.nan)], axis=1)
+        br = np.concatenate([br, np.zeros((len(P), pad, 3), np.int8)], axis=1)
+        iv = np.concatenate([iv, np.full((len(P), pad, 2), np.nan)], axis=1)
+        sols[over], br[over], iv[over], counts[over] = s2, b2, i2, c2
+    h = np.hypot(E[:, 0], E[:, 1])
+    truncated = np.zeros(len(P), bool)
+    return BatchResult(counts, sols, br, iv, truncated, h < VERTICAL_EPS, used)
+
+
+def _batch_rows(design: ArmDesign, P, E, psi, chunk: int, width: int):
+    """The kernel's rows for checked targets, ``width`` ranges stored per target."""
     model = _model(design)
     n = len(P)
     counts = np.zeros(n, np.int64)
     # the kernel fills every row (solutions, then NaN padding): no second pass over memory
-    sols = np.empty((n, MAX_SOLUTIONS, 6))
-    br = np.empty((n, MAX_SOLUTIONS, 3), np.int8)
-    iv = np.empty((n, MAX_SOLUTIONS, 2))
-    h = np.hypot(E[:, 0], E[:, 1])
-    vertical = h < VERTICAL_EPS
+    sols = np.empty((n, width, 6))
+    br = np.empty((n, width, 3), np.int8)
+    iv = np.empty((n, width, 2))
     a, lo, hi = design.lengths, design.lower, design.upper
     used = np.empty(n)
     for s in range(0, n, chunk):
@@ -259,9 +349,7 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
         )
     if np.any(counts < 0):
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
-    truncated = counts > MAX_SOLUTIONS
-    counts = np.minimum(counts, MAX_SOLUTIONS)
-    return BatchResult(counts, sols, br, iv, truncated, vertical, used)
+    return counts, sols, br, iv, used
 
 
 def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
@@ -270,8 +358,7 @@ def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
     Memory stays bounded by the chunk whatever N is (1e7 targets at 1.6 kB of padded
     output each would need 16 GB at once); ``P`` and ``E`` may be memory-mapped arrays.
     """
-    if chunk < 1:
-        raise ValueError(f"chunk: must be >= 1, got {chunk}")
+    _check_chunk(chunk)
     n = len(P)
     for start in range(0, n, chunk):
         yield (
@@ -314,8 +401,7 @@ def count_solutions(
         If the targets are malformed, ``chunk < 1`` or ``min_width`` is negative or not
         finite.
     """
-    if not (isinstance(chunk, (int, np.integer)) and not isinstance(chunk, bool) and chunk >= 1):
-        raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
+    _check_chunk(chunk)
     if not (math.isfinite(min_width) and min_width >= 0.0):
         raise ValueError(f"min_width: expected a finite number >= 0 (m), got {min_width!r}")
     P, E, psi = _check_batch(design, P, E)
@@ -389,7 +475,9 @@ def _line_direction(p, e, sign, azimuth) -> tuple[float, float]:
     return sign * math.cos(psi), sign * math.sin(psi)
 
 
-def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None) -> np.ndarray:
+def configuration_at(
+    design: ArmDesign, p, e, branch, u: float, *, azimuth=None, result=None
+) -> np.ndarray:
     """Joint angles at any u of a branch, shape (6,).
 
     Parameters
@@ -404,10 +492,31 @@ def configuration_at(design: ArmDesign, p, e, branch, u: float, *, azimuth=None)
         valid configuration reaching the target.
     azimuth : float, optional
         The azimuth of d = +1 for a vertical ``e`` (``IKResult.azimuth``).
+    result : IKResult, optional
+        The result the branch and u come from: (p, e) must be its ``target`` (for a
+        degraded result the relaxed target, not the requested one), and its azimuth is used
+        when ``azimuth`` is not given.
+
+    Raises
+    ------
+    ValueError
+        If u is out of reach of the branch, or (p, e) is not ``result.target``.
     """
     check_design(design)
     p, e = check_target(p, e)
     br = _check_branch(branch)
+    if result is not None:
+        tp, te = result.target
+        if not (np.allclose(p, tp, rtol=0, atol=1e-12) and np.allclose(e, te, rtol=0, atol=1e-12)):
+            what = (
+                f"the result is degraded (reached_dof={result.reached_dof}): its ranges "
+                "belong to the relaxed target result.target"
+                if result.reached_dof < 5
+                else "they are not the target of the result (result.target)"
+            )
+            raise ValueError(f"p, e: {what}")
+        if azimuth is None and result.vertical:
+            azimuth = result.azimuth
     if not math.isfinite(u):
         raise ValueError(f"u: must be finite, got {u}")
     dx, dy = _line_direction(p, e, br[0], azimuth)

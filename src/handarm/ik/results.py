@@ -11,7 +11,8 @@ from handarm._checks import check_joints
 
 __all__ = ["IKResult", "BatchResult", "MAX_SOLUTIONS", "format_result", "nearest_solution"]
 
-#: Rows of a batch result (the paper's example has up to ranges x 2 x 2 x 2 = 24).
+#: Usual rows per target of a batch result (the paper's example has up to 3 ranges x 2 x 2 x 2
+#: = 24); a batch holding a target with more ranges is widened to fit them all.
 MAX_SOLUTIONS = 24
 
 
@@ -78,6 +79,15 @@ class IKResult:
     def __len__(self) -> int:
         return self.count
 
+    @property
+    def target(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (p, e) the ranges solve exactly: the relaxed target when degraded.
+
+        Pass it (and ``azimuth``) to ``configuration_at`` for other points of a range; the
+        ranges of a degraded result do not belong to the requested target.
+        """
+        return self.achieved_position, self.achieved_direction
+
     def to_dict(self) -> dict:
         """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which)."""
         return {
@@ -117,18 +127,18 @@ class IKResult:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class BatchResult:
-    """Solutions of N targets, padded to ``MAX_SOLUTIONS`` rows.
+    """Solutions of N targets, padded to W >= ``MAX_SOLUTIONS`` rows (W fits every range).
 
     Attributes
     ----------
     counts : ndarray of int, shape (N,)
         Ranges stored per target (rows past it are NaN in ``solutions`` and ``intervals``,
         0 in ``branches``).
-    solutions : ndarray, shape (N, 24, 6)
-    branches : ndarray of int8, shape (N, 24, 3)
-    intervals : ndarray, shape (N, 24, 2)
+    solutions : ndarray, shape (N, W, 6)
+    branches : ndarray of int8, shape (N, W, 3)
+    intervals : ndarray, shape (N, W, 2)
     truncated : ndarray of bool, shape (N,)
-        More than 24 ranges existed; the first 24 (by branch and u) are stored.
+        Always False: kept for compatibility, no range is dropped any more.
     vertical : ndarray of bool, shape (N,)
     azimuth : ndarray, shape (N,)
         Direction of L for d = +1 (for vertical rows, the azimuth used; see IKResult).

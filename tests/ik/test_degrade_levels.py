@@ -1,0 +1,245 @@
+"""Issue 15: degradation levels keep what they say, match brute force, inputs are checked."""
+
+import math
+
+import numpy as np
+import pytest
+from tests.ik.conftest import valid_configurations
+
+import handarm
+from handarm import ik
+from handarm.ik import exact
+
+
+def angle(a, b):
+    return 2 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+
+
+def solvable(design, p, dirs):
+    return ik.count_solutions(design, np.broadcast_to(p, dirs.shape).copy(), dirs) > 0
+
+
+def check_pose(design, r, p):
+    """The ranges reach the relaxed target, exactly at p, and are valid."""
+    p2, e2 = handarm.forward(design, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9)
+    np.testing.assert_allclose(e2, np.broadcast_to(r.achieved_direction, e2.shape), atol=1e-9)
+    assert handarm.is_valid(design, r.solutions).all()
+    assert r.position_error == 0.0
+
+
+def circle_oracle(design, p, e, step_deg):
+    """Smallest angle to a solvable direction keeping e's yaw or its pitch, by a dense grid.
+
+    Grid points closer than 1e-6 rad to straight up/down are left out: a vertical direction
+    lets L take any azimuth, which keeps neither angle.
+    """
+    pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
+    t = np.radians(np.arange(-180, 180, step_deg) + 0.37 * step_deg)
+    t = t[np.abs(np.cos(t)) > 1e-6]
+    along_pitch = np.stack([np.cos(t) * math.cos(yaw), np.cos(t) * math.sin(yaw), np.sin(t)], 1)
+    c = math.cos(pitch)
+    along_yaw = np.stack([c * np.cos(t), c * np.sin(t), np.full_like(t, math.sin(pitch))], 1)
+    dirs = np.concatenate([along_pitch, along_yaw])
+    ok = solvable(design, p, dirs)
+    return float(angle(dirs[ok], e).min()) if ok.any() else math.inf
+
+
+def kept(e, v):
+    """Independent check of what v keeps of e: same vertical plane, or same elevation."""
+    same_plane = abs(e[0] * v[1] - e[1] * v[0]) < 1e-8 and math.hypot(*v[:2]) > 1e-8
+    return same_plane or abs(e[2] - v[2]) < 1e-8
+
+
+def level4_targets(design, n, seed):
+    rng = np.random.default_rng(seed)
+    q = valid_configurations(design, rng, 8 * n)
+    p = handarm.forward(design, q)[0]
+    e = rng.normal(size=p.shape)
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    keep = np.flatnonzero(ik.count_solutions(design, p, e) == 0)[:n]
+    return p[keep], e[keep]
+
+
+def check_level4_against_oracle(design, P, E, step_deg):
+    levels = []
+    for p, e in zip(P, E, strict=True):
+        r = ik.solve(design, p, e)
+        levels.append(r.reached_dof)
+        check_pose(design, r, p)
+        oracle = circle_oracle(design, p, e, step_deg)
+        if r.reached_dof == 4:
+            assert kept(e, r.achieved_direction)
+            assert r.direction_error <= oracle + math.radians(0.01)
+        else:
+            assert r.reached_dof == 3 and oracle == math.inf
+    return levels
+
+
+def test_level4_matches_dense_circle_oracle(paper):
+    P, E = level4_targets(paper, 12, seed=5)
+    levels = check_level4_against_oracle(paper, P, E, 0.05)
+    assert 4 in levels
+
+
+@pytest.mark.slow
+def test_level4_matches_dense_circle_oracle_many(paper):
+    P, E = level4_targets(paper, 300, seed=6)
+    check_level4_against_oracle(paper, P, E, 0.01)
+
+
+def test_issue_repro_pole_is_not_level4(paper):
+    """Straight down with L off e's yaw kept neither angle; 19.4 deg is reachable."""
+    p = np.array([-0.01825, -0.12479, 0.0657])
+    e = np.array([-0.54348, -0.07102, -0.83641])
+    e /= np.linalg.norm(e)
+    r = ik.solve(paper, p, e)
+    check_pose(paper, r, p)
+    assert r.reached_dof in (3, 4)
+    if r.reached_dof == 4:
+        assert kept(e, r.achieved_direction)
+    other = np.array([-0.63401, -0.35761, -0.68568])
+    other /= np.linalg.norm(other)
+    assert solvable(paper, p, other[None])[0]
+    assert r.direction_error <= angle(other, e) + math.radians(0.01)
+
+
+def test_issue_repro_small_cap_near_reach_sphere(paper):
+    q = np.radians([30, 1, 0, 0, 1, 0])
+    p = handarm.forward(paper, q)[0]
+    r = ik.solve(paper, p, [0, 0, -1])
+    check_pose(paper, r, p)
+    assert r.reached_dof >= 3
+    assert math.degrees(r.direction_error) <= 89.67 + 0.01
+
+
+def test_smallest_angle_first_order(paper):
+    P, E = level4_targets(paper, 4, seed=7)
+    for p, e in zip(P, E, strict=True):
+        a = ik.solve(paper, p, e, order="angle")
+        b = ik.solve(paper, p, e, order="paper")
+        check_pose(paper, a, p)
+        assert a.direction_error <= b.direction_error + 1e-9
+        assert (a.reached_dof == 4) == kept(e, a.achieved_direction)
+
+
+def test_degraded_result_exposes_its_relaxed_target(paper):
+    p = np.array([-0.01825, -0.12479, 0.0657])
+    e = np.array([-0.54348, -0.07102, -0.83641])
+    r = ik.solve(paper, p, e)
+    tp, te = r.target
+    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+        q = ik.configuration_at(paper, tp, te, br, 0.5 * (lo + hi), result=r)
+        assert handarm.is_valid(paper, q)
+        p2, e2 = handarm.forward(paper, q)
+        np.testing.assert_allclose(p2, tp, atol=1e-9)
+        np.testing.assert_allclose(e2, te, atol=1e-9)
+    with pytest.raises(ValueError, match="degraded"):
+        ik.configuration_at(paper, p, e, r.branches[0], r.intervals[0].mean(), result=r)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"p": [1e300, 0, 0]}, "^p: "),
+        ({"p": [40.0, 0, 0]}, "^p: .*metres"),
+        ({"current": np.radians([30, 0, 0, 0, 0, 0]) * 60}, "^current: .*radians"),
+        ({"e": [0, 0, 0]}, "^e: "),
+        ({"order": "fast"}, "^order: "),
+        ({"degrade": "yes"}, "^degrade: "),
+    ],
+)
+def test_bad_inputs_name_the_argument(paper, kwargs, match):
+    args = {"p": [0.2, 0.05, 0.05], "e": [1, 0, 0.3]} | kwargs
+    with pytest.raises(ValueError, match=match):
+        ik.solve(paper, **args)
+
+
+def test_extreme_but_legal_directions(paper):
+    p = handarm.forward(paper, np.radians([10, 30, -40, 30, 20, 10]))[0]
+    for e in ([1.5e154, 0, 0], [1e-13, 0, 3e-14], [1e-300, 1e-300, 0]):
+        r = ik.solve(paper, p, e)
+        assert r.count > 0
+        assert np.all(np.isfinite(r.solutions)) and np.all(np.isfinite(r.achieved_direction))
+        np.testing.assert_allclose(np.linalg.norm(r.target[1]), 1.0)
+
+
+@pytest.mark.parametrize("chunk", [-1, 0, 2.5, True])
+def test_chunk_is_validated_everywhere(paper, chunk):
+    P = np.array([[0.2, 0.05, 0.05]])
+    E = np.array([[1.0, 0, 0.3]])
+    with pytest.raises(ValueError, match="^chunk: "):
+        ik.solve_batch(paper, P, E, chunk=chunk)
+    with pytest.raises(ValueError, match="^chunk: "):
+        ik.count_solutions(paper, P, E, chunk=chunk)
+    with pytest.raises(ValueError, match="^chunk: "):
+        list(ik.solve_batch_iter(paper, P, E, chunk=chunk))
+
+
+def test_batch_widens_instead_of_truncating(paper, monkeypatch):
+    """With a row width smaller than some targets need, batch still keeps every range."""
+    rng = np.random.default_rng(3)
+    q = valid_configurations(paper, rng, 40)
+    P, E = handarm.forward(paper, q)
+    counts = ik.count_solutions(paper, P, E)
+    monkeypatch.setattr(exact, "MAX_SOLUTIONS", 2)
+    b = ik.solve_batch(paper, P, E)
+    np.testing.assert_array_equal(b.counts, counts)
+    assert b.solutions.shape[1] == counts.max() > 2
+    assert not b.truncated.any()
+    for i in range(len(P)):
+        r = ik.solve(paper, P[i], E[i])
+        np.testing.assert_allclose(b.intervals[i, : b.counts[i]], r.intervals, atol=1e-12)
+
+
+def test_follow_is_nearest_in_range_configuration(paper):
+    """follow against dense sampling of every range (Euclidean joint distance)."""
+    rng = np.random.default_rng(21)
+    q = valid_configurations(paper, rng, 12)
+    for k in range(len(q)):
+        p, e = handarm.forward(paper, q[k])
+        current = np.clip(q[k] + rng.normal(scale=0.4, size=6), paper.lower, paper.upper)
+        r = ik.solve(paper, p, e, current=current)
+        best = math.inf
+        for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+            u = np.linspace(lo, hi, 2001)[1:-1]
+            qs, ok = ik.configurations_along(paper, p, e, br, u, azimuth=r.azimuth)
+            qs = qs[ok & handarm.is_valid(paper, qs)]
+            if len(qs):
+                best = min(best, float(np.linalg.norm(qs - current, axis=1).min()))
+        got = float(np.linalg.norm(r.follow - current))
+        assert handarm.is_valid(paper, r.follow)
+        assert got <= best + 1e-6
+
+
+def test_near_vertical_noise_does_not_swing_the_tip_plane(paper):
+    """Tilting a vertical e by 1e-6 rad in any azimuth moves follow by a tiny amount."""
+    q = np.radians([20, 30, -30, 60, 40, -10])
+    p = handarm.forward(paper, q)[0]
+    r0 = ik.solve(paper, p, [0, 0, 1], current=q)
+    assert r0.count > 0
+    current = r0.follow
+    rng = np.random.default_rng(2)
+    for az in rng.uniform(-math.pi, math.pi, 40):
+        tilt = 1e-6
+        e = np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)])
+        r = ik.solve(paper, p, e, current=current)
+        assert r.reached_dof == 5
+        assert r.direction_error <= 2 * tilt + 1e-12
+        assert abs(r.achieved_direction[2] - e[2]) < 1e-12  # elevation kept exactly
+        assert np.abs(r.follow - current).max() < 1e-4
+        current = r.follow
+
+
+def test_straight_arm_is_an_exact_single_point(paper):
+    """The straight arm's pose has one configuration: a zero-length range at level 5."""
+    p, e = handarm.forward(paper, np.zeros(6))
+    r = ik.solve(paper, p, e)
+    assert r.reached_dof == 5
+    assert r.position_error == 0.0 and r.direction_error == 0.0
+    assert r.count >= 1
+    np.testing.assert_allclose(r.intervals[:, 0], r.intervals[:, 1])
+    p2, e2 = handarm.forward(paper, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9)
+    np.testing.assert_allclose(e2, np.broadcast_to(e, e2.shape), atol=1e-9)
+    assert handarm.is_valid(paper, r.solutions).all()
