@@ -70,8 +70,11 @@ def test_header_compiles_and_matches(tmp_path, design):
 
 
 def test_design_name_cannot_escape_the_header_comment(tmp_path, design):
-    evil = design.replace(name="x */ int injected = 1; /* y")
-    config = controller_config(evil)
+    name = "x */ int injected = 1; /* y"
+    with pytest.raises(ValueError, match="name: .* not a file-name-safe label"):
+        design.replace(name=name)  # refused at the door ...
+    config = controller_config(design)
+    config["design"] = name  # ... and escaped in the header anyway (defence in depth)
     write_header(config, tmp_path / "arm_config.h")
     (tmp_path / "use.c").write_text(
         '#include "arm_config.h"\nint injected = 2;\nint f(void) { return injected; }\n'
