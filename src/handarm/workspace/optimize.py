@@ -19,6 +19,8 @@ Output layout (stable; other tools read it)::
     OUT/front/trial-NNNN.toml   each front design; --build adds OUT/front/trial-NNNN/
     OUT/pictures/          pareto.png, hypervolume.png, parallel.png, importance.png and
                            optimize.html (the same, interactive, hover for trial numbers)
+    OUT/report.html        the page of the run (``handarm.report``): fronts, history,
+                           parallel coordinates, comparison of two designs
 """
 
 from __future__ import annotations
@@ -364,6 +366,9 @@ def run_optimization(
     if todo:
         new = _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
     result = write_outputs(opt, study, out)
+    from handarm.report import write_report  # plotly: loaded only for the report
+
+    write_report(out)
     return {"new": new, "finished": finished + new, **result}
 
 
