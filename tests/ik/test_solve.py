@@ -245,16 +245,15 @@ def test_bad_batch_row_is_named(paper):
         ik.configuration_at(paper, [0.1, 0, 0], [1, 0, 0], (1, 0, 1), 0.0)
 
 
-@settings(max_examples=150, deadline=None)
-@given(
-    p=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3),
-    e=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(
-        lambda v: np.linalg.norm(v) > 1e-6
-    ),
+_POINTS = st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3)
+_DIRECTIONS = st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(
+    lambda v: np.linalg.norm(v) > 1e-6
 )
-def test_never_a_nan(p, e):
+
+
+def _check_no_nan(p, e, degrade):
     d = handarm.ArmDesign()
-    r = ik.solve(d, p, e)
+    r = ik.solve(d, p, e, degrade=degrade)
     for arr in (r.solutions, r.intervals):
         assert np.all(np.isfinite(arr))
     assert math.isfinite(r.position_error) and math.isfinite(r.direction_error)
@@ -263,3 +262,23 @@ def test_never_a_nan(p, e):
         np.testing.assert_allclose(p2, np.broadcast_to(r.achieved_position, p2.shape), atol=1e-9)
         np.testing.assert_allclose(e2, np.broadcast_to(r.achieved_direction, e2.shape), atol=1e-9)
         assert handarm.is_valid(d, r.solutions).all()
+
+
+@settings(max_examples=150, deadline=None)
+@given(p=_POINTS, e=_DIRECTIONS)
+def test_never_a_nan(p, e):
+    _check_no_nan(p, e, degrade=False)
+
+
+@settings(max_examples=12, deadline=None)
+@given(p=_POINTS, e=_DIRECTIONS)
+def test_never_a_nan_degraded(p, e):
+    """Degraded answers take about a second each: a few here, many under the slow marker."""
+    _check_no_nan(p, e, degrade=True)
+
+
+@pytest.mark.slow
+@settings(max_examples=150, deadline=None)
+@given(p=_POINTS, e=_DIRECTIONS)
+def test_never_a_nan_degraded_many(p, e):
+    _check_no_nan(p, e, degrade=True)

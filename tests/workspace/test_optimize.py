@@ -228,7 +228,7 @@ def test_optimize_resumes_extends_and_writes_the_front(opt_file, tmp_path, capsy
         assert (out / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
     assert "plotly" in (out / "pictures" / "optimize.html").read_text()[:200_000].lower()
     page = (out / "report.html").read_text()
-    assert "trial" in page and "<script src=\"http" not in page  # the run's offline page
+    assert "trial" in page and '<script src="http' not in page  # the run's offline page
     # another optimization into the same folder is refused, naming the option
     opt_file.write_text(OPT.replace("max_mass_g = 150", "max_mass_g = 140"))
     code = main(["optimize", str(opt_file), "--out", str(out), "--quiet"])
