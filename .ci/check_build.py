@@ -35,6 +35,7 @@ EXPECTED = [
     ("controller/arm_config.h", "controller/arm_config.h", 1),
     ("workspace/workspace.npz", "workspace/workspace.npz", 1),
     ("workspace/workspace.json", "workspace/workspace.json", 1),
+    ("sizing.json", "sizing.json", 1),
     ("report.html", "report.html", 1),
     ("handarm-build.json", "handarm-build.json", 1),
 ]

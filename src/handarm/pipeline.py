@@ -10,6 +10,7 @@ Progress bars (tqdm, on standard error) are shown when ``progress=True``.
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -245,6 +246,15 @@ def _write_handle(design: ArmDesign, carving, out: Path, summary: Path) -> list[
     return paths
 
 
+def _write_sizing(design: ArmDesign, carving, out: Path) -> Path:
+    """``sizing.json``: payload and pulley sizing with the carved link masses (cvxpy)."""
+    from handarm.firmware_bridge.sizing import sizing_report
+
+    path = out / "sizing.json"
+    write_text_atomic(path, json.dumps(sizing_report(design, carving=carving), indent=2) + "\n")
+    return path
+
+
 def build(
     design: ArmDesign,
     out: str | os.PathLike[str],
@@ -316,6 +326,7 @@ def build(
         files += _write_handle(design, carving, out, summary)
         achieved = [j.achieved for j in carving.joints]
         files += export_controller(design, out / "controller", achieved_limits=achieved)
+        files.append(_write_sizing(design, carving, out))
         files += map_workspace(
             design,
             out / "workspace",

@@ -304,6 +304,7 @@ def sizing_report(
     radius_range: tuple[float, float] = (0.004, 0.020),
     min_speed: float = math.radians(180.0),
     carve_links: bool = True,
+    carving=None,
 ) -> dict:
     """The payload and pulley sizing of a design as a JSON-ready dict (``bridge size``).
 
@@ -319,6 +320,8 @@ def sizing_report(
     carve_links : bool
         Take link masses from the carved meshes (coarse 2 degree carving); otherwise from
         solid beams of the design's cross-section.
+    carving : CarveResult, optional
+        Link masses from this carving (``handarm build`` passes its own) instead.
 
     Returns
     -------
@@ -328,7 +331,9 @@ def sizing_report(
         ``sized_payload_kg``, ``torque_limit_Nm``.
     """
     links = design_link_masses(design)
-    if carve_links:
+    if carving is not None:
+        links = carved_link_masses(carving)
+    elif carve_links:
         links = carved_link_masses(carve(design, 2.0))
     payload, info = max_payload(design, links=links, safety=safety)
     sized = size_pulleys(
