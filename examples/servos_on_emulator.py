@@ -26,7 +26,8 @@ def main() -> None:
     print("controller files:", ", ".join(p.name for p in files))
     # six emulated MX-64T whose horns sit wherever they were assembled
     with EmulatedBus(positions={1: 2000, 2: 100, 3: 3000, 4: 2048, 5: 4000, 6: 10}) as emu:
-        with ServoBus(emu.port, d.baud_rate) as bus:
+        # a software bus answers from a thread: give it the timeout it asks for
+        with ServoBus(emu.port, d.baud_rate, emu.timeout_ms) as bus:
             cal = record_calibration(bus, d)  # the arm held straight
             print("calibration offsets (ticks):", cal.offsets)
             apply_settings(bus, d, cal)

@@ -28,8 +28,10 @@ class MeshArm:
         self.carving = carving or handarm.carve.carve(design, resolution_deg)
         self.solids = [link.solid for link in self.carving.links]  # mm, link frames
         self.models = []
+        self.meshes = []
         for solid in self.solids:
             mesh = to_trimesh(solid)
+            self.meshes.append(mesh)
             model = fcl.BVHModel()
             model.beginModel(len(mesh.vertices), len(mesh.faces))
             model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))

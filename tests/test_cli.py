@@ -17,8 +17,12 @@ def run(capsys, *argv):
     return code, out, err
 
 
+#: a quick-look map: CI's first step builds at the default settings and checks every file
+QUICK = ("--voxel", "0.03", "--directions", "36", "--quiet")
+
+
 def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
-    code, out, err = run(capsys, "build", "--out", str(tmp_path / "b"), "--quiet")
+    code, out, err = run(capsys, "build", "--out", str(tmp_path / "b"), *QUICK)
     assert code == 0, err
     b = tmp_path / "b"
     assert ArmDesign.from_toml(b / "design.toml") == ArmDesign()
@@ -34,17 +38,36 @@ def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
     assert (b / "controller" / "arm_config.h").exists()
     # nothing half-written is left behind
     assert not list(b.rglob("*.tmp"))
+    report = json.loads((b / "workspace" / "workspace.json").read_text())
+    assert (report["voxel_m"], report["directions"]) == (0.03, 36)
 
 
 def test_build_from_a_design_file(tmp_path, capsys):
     d = ArmDesign(name="mine", link_lengths=[0.04] * 7)
     d.to_toml(tmp_path / "mine.toml")
     code, _, err = run(
-        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "o"), "--quiet"
+        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "o"), *QUICK
     )
     assert code == 0, err
     assert ArmDesign.from_toml(tmp_path / "o" / "design.toml") == d
     assert (tmp_path / "o" / "mine.urdf").exists()
+
+
+def test_build_map_settings_are_checked_before_any_work(tmp_path, capsys):
+    args = ("--out", str(tmp_path / "b"), "--directions", "40")
+    code, _, err = run(capsys, "build", *args)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "--directions: 40 directions cannot be spread evenly" in err
+    assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("args", [("--voxel", "0"), ("--resolution", "20"), ("--directions", "x")])
+def test_build_options_refuse_bad_values_in_one_line(tmp_path, capsys, args):
+    with pytest.raises(SystemExit) as exc:
+        run(capsys, "build", "--out", str(tmp_path / "b"), *args)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and f"argument {args[0]}:" in err
+    assert not (tmp_path / "b").exists()
 
 
 def test_urdf_command(tmp_path, capsys):

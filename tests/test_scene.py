@@ -38,30 +38,86 @@ def random_scene(rng, n=3) -> Scene:
     return s
 
 
-def fcl_obstacles(scene: Scene) -> list:
-    """The scene as fcl objects, in millimetres (the meshes' unit)."""
+def _bvh(mesh: trimesh.Trimesh) -> fcl.BVHModel:
+    model = fcl.BVHModel()
+    model.beginModel(len(mesh.vertices), len(mesh.faces))
+    model.addSubModel(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+    model.endModel()
+    return model
+
+
+def _fitted(mesh: trimesh.Trimesh, core: np.ndarray, radius: float, fit: str) -> trimesh.Trimesh:
+    """A convex tessellation of a swept sphere, inside it or scaled until it holds it."""
+    if fit == "inside":
+        return mesh
+    normals = mesh.face_normals
+    v0 = mesh.vertices[mesh.faces[:, 0]]
+    inradius = min(np.min(np.einsum("ij,ij->i", normals, v0 - c)) for c in core)
+    grow = radius / inradius
+    centre = core.mean(axis=0)
+    out = mesh.copy()
+    # spheres scale about the centre; capsules scale only across their axis
+    if len(core) == 1:
+        out.vertices = centre + (mesh.vertices - centre) * grow
+    else:
+        length = np.linalg.norm(core[1] - core[0])
+        axis = (core[1] - core[0]) / length
+        rel = mesh.vertices - centre
+        spine = np.outer(np.clip(rel @ axis, -length / 2, length / 2), axis)
+        out.vertices = centre + spine + (rel - spine) * grow
+    return out
+
+
+def fcl_obstacles(scene: Scene, fit: str = "inside") -> list:
+    """The scene as (fcl object, inside test, trimesh) triples, in millimetres (the meshes' unit).
+
+    fcl's mesh-to-primitive distance returns garbage (about 1e-320) for some poses, so every
+    obstacle is a triangle mesh too. Boxes are exact; spheres and capsules are tessellated
+    ``inside`` the true shape (distances at least the true ones) or scaled to hold it
+    (``outside``: distances at most the true ones). The inside test (points in mm, world)
+    is the exact primitive, for a link that lies wholly within an obstacle.
+    """
     objs = []
     for row in scene.obstacles:
         kind = int(row[0])
         if kind == 0:
-            objs.append(
-                fcl.CollisionObject(fcl.Sphere(row[4] * 1e3), fcl.Transform(row[1:4] * 1e3))
-            )
+            c, r = row[1:4] * 1e3, row[4] * 1e3
+            mesh = trimesh.creation.icosphere(4, r)
+            mesh = _fitted(mesh, np.zeros((1, 3)), r, fit)
+            mesh.apply_translation(c)
+
+            def inside(pts, c=c, r=r):
+                return np.linalg.norm(pts - c, axis=1) <= r
+
         elif kind == 1:
-            a, b = row[1:4], row[4:7]
+            a, b, r = row[1:4] * 1e3, row[4:7] * 1e3, row[7] * 1e3
             axis = b - a
             length = np.linalg.norm(axis)
             z = axis / length
             x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
             x /= np.linalg.norm(x)
-            rot = np.column_stack([x, np.cross(z, x), z])
-            shape = fcl.Capsule(row[7] * 1e3, length * 1e3)
-            objs.append(fcl.CollisionObject(shape, fcl.Transform(rot, (a + b) / 2 * 1e3)))
+            tf = np.eye(4)
+            tf[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+            tf[:3, 3] = (a + b) / 2
+            mesh = trimesh.creation.capsule(height=length, radius=r, count=[64, 64])
+            core = np.array([[0, 0, -length / 2], [0, 0, length / 2]])
+            mesh = _fitted(mesh, core, r, fit)
+            mesh.apply_transform(tf)
+
+            def inside(pts, a=a, b=b, r=r):
+                t = np.clip((pts - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1)
+                return np.linalg.norm(pts - (a + t[:, None] * (b - a)), axis=1) <= r
+
         else:
-            shape = fcl.Box(*(2e3 * row[13:16]))
-            objs.append(
-                fcl.CollisionObject(shape, fcl.Transform(row[4:13].reshape(3, 3), row[1:4] * 1e3))
-            )
+            rot, c, half = row[4:13].reshape(3, 3), row[1:4] * 1e3, row[13:16] * 1e3
+            tf = np.eye(4)
+            tf[:3, :3], tf[:3, 3] = rot, c
+            mesh = trimesh.creation.box(2 * half, tf)
+
+            def inside(pts, rot=rot, c=c, half=half):
+                return np.all(np.abs((pts - c) @ rot) <= half, axis=1)
+
+        objs.append((fcl.CollisionObject(_bvh(mesh)), inside, mesh))
     return objs
 
 
@@ -69,13 +125,16 @@ def mesh_distance(arm: MeshArm, q, obstacles) -> float:
     """Smallest distance (m) between any carved link and any obstacle (0 on contact)."""
     tf = arm.transforms(q)
     best = np.inf
-    for model, t in zip(arm.models, tf, strict=True):
+    for model, mesh, t in zip(arm.models, arm.meshes, tf, strict=True):
         link = fcl.CollisionObject(model, fcl.Transform(t[:3, :3], t[:3, 3]))
-        for ob in obstacles:
+        verts = mesh.vertices @ t[:3, :3].T + t[:3, 3]
+        for ob, inside, ob_mesh in obstacles:
             if fcl.collide(link, ob, fcl.CollisionRequest(), fcl.CollisionResult()):
                 return 0.0
-            res = fcl.DistanceResult()
-            best = min(best, fcl.distance(link, ob, fcl.DistanceRequest(), res))
+            local = (ob_mesh.vertices[0] - t[:3, 3]) @ t[:3, :3]
+            if inside(verts[:1]).any() or mesh.contains(local[None])[0]:
+                return 0.0  # one wholly inside the other: no surfaces cross
+            best = min(best, fcl.distance(link, ob, fcl.DistanceRequest(), fcl.DistanceResult()))
     return best * 1e-3
 
 
@@ -84,7 +143,7 @@ def test_gaps_never_exceed_the_mesh_distance(design, arm):
     rng = np.random.default_rng(1)
     for _ in range(15):
         scene = random_scene(rng)
-        obstacles = fcl_obstacles(scene)
+        obstacles = fcl_obstacles(scene, "inside")
         q = rng.uniform(design.lower, design.upper, (20, 6))
         gaps = scene_gaps(design, q, scene).min(axis=-1)
         for qi, g in zip(q, gaps, strict=True):
@@ -138,7 +197,7 @@ def _keep_clear(design, arm, n_targets, seed):
     c = 0.002
     for k, (p, e) in enumerate(zip(P, E, strict=True)):
         scene = random_scene(rng, 4)
-        obstacles = fcl_obstacles(scene)
+        obstacles = fcl_obstacles(scene, "outside")
         r = ik.solve(design, p, e, scene=scene, clearance=c)
         for j in range(r.count):
             qs = [r.solutions[j]] + [
@@ -321,3 +380,19 @@ def test_ik_command_with_a_scene(tmp_path):
     ):
         out = subprocess.run(base + args, capture_output=True, text=True)
         assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr
+
+
+def test_meshed_obstacles_bracket_the_true_shapes():
+    """The yardstick itself: 'inside' meshes lie within the primitive, 'outside' ones hold it."""
+    rng = np.random.default_rng(11)
+    for _ in range(4):
+        scene = random_scene(rng, 3)
+        for (_, inside, inner), (_, _, outer) in zip(
+            fcl_obstacles(scene, "inside"), fcl_obstacles(scene, "outside"), strict=True
+        ):
+            lo, hi = outer.bounds
+            pts = rng.uniform(lo - 1, hi + 1, (4000, 3))
+            true = inside(pts)
+            assert true.sum() > 20
+            assert not (inner.contains(pts) & ~true).any()
+            assert not (true & ~outer.contains(pts)).any()

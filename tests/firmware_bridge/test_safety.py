@@ -109,8 +109,11 @@ def test_mismatched_calibration_is_refused(design):
         assert writes(emu, before) == []
 
 
-def test_apply_at_every_status_return_level_and_fixes_presets(design):
-    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+@pytest.mark.parametrize("reply_level", ["new", "old"])
+def test_apply_at_every_status_return_level_and_fixes_presets(design, reply_level):
+    """Whichever level decides the answer to writing the level, no stray packet is left."""
+    emulator = EmulatedBus(positions=START, reply_level=reply_level)
+    with emulator as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
         emu.servos[2].table[16] = 1
         emu.servos[5].table[16] = 0
         emu.servos[3].table[22] = 2

@@ -295,6 +295,10 @@ def cmd_emulate(args: argparse.Namespace) -> int:
     design = load_design(args.design)
     with EmulatedBus(design.servo_ids) as bus:
         print(f"emulated MX-64T bus (IDs {list(design.servo_ids)}) on {bus.port}", flush=True)
+        print(
+            f"(a software bus: pass --timeout {bus.timeout_ms:g} to the commands that use it)",
+            flush=True,
+        )
         while True:
             time.sleep(1.0)
 

@@ -5,14 +5,48 @@ from __future__ import annotations
 import argparse
 import math
 
-from handarm.cli._common import add_design_arg, add_limits, add_quiet, limits, load_design, number
+from handarm.cli._common import (
+    add_design_arg,
+    add_limits,
+    add_quiet,
+    limits,
+    load_design,
+    number,
+    option_error,
+)
+
+
+#: build's own options, named in the message when the library refuses their value
+_BUILD_OPTIONS = {"voxel": "--voxel", "directions": "--directions"}
+
+
+def _add_resolution(p) -> None:
+    p.add_argument(
+        "--resolution",
+        type=number(low=0.01, high=10.0),
+        default=1.0,
+        metavar="DEG",
+        help="largest angle between swept poses, degrees, 0.01..10 (default 1)",
+    )
 
 
 def cmd_build(args: argparse.Namespace) -> int:
     """Everything for one design."""
     from handarm.pipeline import build
 
-    result = build(load_design(args.design), args.out, progress=not args.quiet, **limits(args))
+    design = load_design(args.design)
+    try:
+        result = build(
+            design,
+            args.out,
+            resolution_deg=args.resolution,
+            voxel=args.voxel,
+            directions=args.directions,
+            progress=not args.quiet,
+            **limits(args),
+        )
+    except ValueError as exc:
+        raise option_error(exc, _BUILD_OPTIONS) from None
     for path in result.files:
         print(path)
     return 0
@@ -62,6 +96,20 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--out", default="build", help="output folder (default: build)")
+    _add_resolution(p)
+    p.add_argument(
+        "--voxel",
+        type=number(low=1e-4),
+        default=0.01,
+        metavar="M",
+        help="workspace map voxel edge, m (default 0.01; 0.03 for a quick look)",
+    )
+    p.add_argument(
+        "--directions",
+        type=number(int, low=4),
+        default=100,
+        help="workspace map approach directions (default 100; 36 for a quick look)",
+    )
     add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_build)
@@ -74,13 +122,7 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--out", default="build/carve", help="output folder (default: build/carve)")
-    p.add_argument(
-        "--resolution",
-        type=number(low=0.01, high=10.0),
-        default=1.0,
-        metavar="DEG",
-        help="largest angle between swept poses, degrees, 0.01..10 (default 1)",
-    )
+    _add_resolution(p)
     add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_carve)

@@ -211,11 +211,25 @@ class ServoBus:
         self._check(sid, f"read {size} bytes at {addr}", comm, error & ~STOP_BITS)
         return bytes(data), int(error)
 
-    def write(self, sid: int, name: str, value: int, *, status: bool = True) -> None:
-        """Write a named register; with ``status`` wait for and check the status packet."""
+    def write(self, sid: int, name: str, value: int, *, status: bool | None = True) -> None:
+        """Write a named register.
+
+        ``status`` True: wait for and check the status packet; False: send only (the servo
+        does not answer writes); None: the servo may or may not answer (writing its Status
+        Return Level: whether the reply follows the old or the new level is firmware's
+        choice), so wait for the reply window and accept silence, leaving no stray packet to
+        be taken for the answer of the next instruction.
+        """
         addr, size = ADDR[name]
         value = int(value)
-        if status:
+        if status is None:
+            from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS
+
+            call = self.packet.write1ByteTxRx if size == 1 else self.packet.write2ByteTxRx
+            comm, error = self._io(f"write {name}", call, self.port, sid, addr, value)
+            if comm == COMM_RX_TIMEOUT:
+                comm, error = COMM_SUCCESS, 0
+        elif status:
             call = self.packet.write1ByteTxRx if size == 1 else self.packet.write2ByteTxRx
             comm, error = self._io(f"write {name}", call, self.port, sid, addr, value)
         else:
@@ -357,6 +371,8 @@ def apply_settings(
         for sid, regs in settings.items():
             for name in APPLIED:
                 confirmed = levels[sid] >= 2
+                if name == "status_return_level" and not confirmed:
+                    confirmed = None  # the answer may follow the old level or the new one
                 bus.write(sid, name, regs[name], status=confirmed)
                 written.append(f"servo {sid} {name}={regs[name]}")
                 if name == "status_return_level":

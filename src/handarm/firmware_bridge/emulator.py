@@ -200,7 +200,16 @@ class EmulatedBus:
     bauds : mapping, optional
         Bit rate per ID (default 1,000,000, the design's); a servo answers only when the
         host's port runs at its rate.
+    reply_level : {"new", "old"}
+        Which Status Return Level decides whether a WRITE of that register is answered: the
+        one it sets ("new", the default) or the one it replaces ("old"). The control table
+        does not say; the host must work with either.
     """
+
+    #: Status timeout (ms) a host should use with this bus. A servo answers within half a
+    #: millisecond; this bus answers from a Python thread, which a busy machine can hold up
+    #: for longer than the SDK's default timeout (about 34 ms at 1 Mbps).
+    timeout_ms = 500.0
 
     def __init__(
         self,
@@ -213,7 +222,11 @@ class EmulatedBus:
         positions: Mapping[int, int] | None = None,
         duplicates: Iterable[int] = (),
         bauds: Mapping[int, int] | None = None,
+        reply_level: str = "new",
     ):
+        if reply_level not in ("new", "old"):
+            raise ValueError(f"reply_level: expected 'new' or 'old', got {reply_level!r}")
+        self.reply_level = reply_level
         models = dict(models or {})
         positions = dict(positions or {})
         bauds = dict(bauds or {})
@@ -351,8 +364,9 @@ class EmulatedBus:
             self._bulk_read(params)
             return
         for servo in targets:
+            before = servo.get("status_return_level")
             error, data = self._execute(servo, inst, params)
-            level = servo.get("status_return_level")
+            level = servo.get("status_return_level") if self.reply_level == "new" else before
             answers = inst == PING or (inst == READ and level >= 1) or level >= 2
             if sid != BROADCAST and answers:
                 self._reply(servo, error, data)

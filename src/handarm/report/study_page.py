@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import itertools
 import json
 import math
 from pathlib import Path
@@ -21,6 +22,7 @@ import numpy as np
 
 from handarm.report._data import read_json, unit_of
 from handarm.report._page import Page
+from handarm.workspace.study_results import PARETO_OBJECTIVES
 
 __all__ = ["Objective", "study_report", "hypervolume", "hypervolume_history"]
 
@@ -35,10 +37,11 @@ class Objective:
     reference: float | None = None
 
 
-#: A study's front (handarm.workspace.study_results.pareto_front): workspace up, mass down.
-STUDY_OBJECTIVES = (
-    Objective("workspace_score", "maximize", "–", 0.0),
-    Objective("mass_kg", "minimize", "kg", None),
+#: A study's front: the objectives of handarm.workspace.study_results.pareto_front, read
+#: from there (volumes and the thinnest cross-section up, mass down), in physical units.
+STUDY_OBJECTIVES = tuple(
+    Objective(key, "maximize" if sign > 0 else "minimize", unit_of(key)[1])
+    for key, sign in PARETO_OBJECTIVES
 )
 
 _COMPARE_JS = r"""
@@ -276,7 +279,7 @@ def _front_section(page: Page, folder: Path, t: _Table) -> None:
         "Every finished design; the front is drawn in colour. Hover for a design's variables; "
         "a click opens its build report when it was built in this folder."
     )
-    pairs = [(0, 1)] if len(t.objectives) == 2 else [(0, 1), (0, 2), (1, 2)]
+    pairs = list(itertools.combinations(range(len(t.objectives)), 2))
     links = [_report_link(folder, r) for r in rows]
     hover = [
         "<br>".join(

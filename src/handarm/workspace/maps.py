@@ -5,11 +5,13 @@ Per voxel: the reachability index (fraction of directions with a solution), the 
 of solution ranges over the directions, and whether the position is reachable with at least
 one of the directions.
 
-Symmetries: negating q1..q3 mirrors the arm in y (tool point and direction), negating
-q4..q6 mirrors it in z; the collision model is mirror-invariant. When the limits of joints
-1-3 (resp. 4-6) are symmetric, only y > 0 (resp. z > 0) is computed and mirrored. The grid
-and the direction set are themselves mirror-symmetric, so the mirrored map equals the full
-computation (tested).
+Symmetries: negating q1..q3 mirrors the arm's kinematics in y (tool point and direction),
+negating q4..q6 mirrors it in z. The paper's segment model is mirror-invariant; the printed
+links are only when every envelope piece is symmetric about its link's plane, which the
+default links are not (each fork carries its idler stack on one side). When the collision
+model is mirror-invariant and the limits of joints 1-3 (resp. 4-6) are symmetric, only y > 0
+(resp. z > 0) is computed and mirrored. The grid and the direction set are themselves
+mirror-symmetric, so the mirrored map equals the full computation (tested).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from handarm._io import write_bytes_atomic
+from handarm.collision import envelopes
 from handarm.design import ArmDesign
 from handarm.ik import count_solutions
 
@@ -110,9 +113,36 @@ def _direction_bands(n: int) -> np.ndarray:
 
 
 def symmetries(design: ArmDesign) -> tuple[bool, bool]:
-    """(mirror in y, mirror in z): whether joints 1-3 / 4-6 have symmetric limits."""
+    """(mirror in y, mirror in z): whether a map may be computed on one side and mirrored.
+
+    True when joints 1-3 (resp. 4-6) have symmetric limits and the design's collision model
+    is mirror-invariant (see the module docstring).
+    """
+    if not collision_mirror_invariant(design):
+        return False, False
     sym = np.isclose(design.lower, -design.upper, rtol=0, atol=1e-15)
     return bool(sym[:3].all()), bool(sym[3:].all())
+
+
+def collision_mirror_invariant(design: ArmDesign) -> bool:
+    """Whether the collision model reflects onto itself when the arm is mirrored.
+
+    The paper's segments lie on the link lines. A printed envelope piece is mirror-invariant
+    when its stadium is symmetric about the link's line (the segment's mirror image is the
+    segment) and its slab about the link's plane (z range centred on 0). Requiring it of every
+    piece is sufficient (it ignores pieces that are mirror images of each other), so it never
+    claims a symmetry that is not there.
+    """
+    if design.collision_model != "printed":
+        return True
+    tol = 1e-9
+    for piece in envelopes(design).pieces:
+        seg = piece.segment
+        flipped = seg * [1.0, -1.0]
+        same = np.abs(flipped - seg).max() <= tol or np.abs(flipped[::-1] - seg).max() <= tol
+        if abs(piece.z[0] + piece.z[1]) > tol or not same:
+            return False
+    return True
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
