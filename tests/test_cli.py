@@ -17,8 +17,8 @@ def run(capsys, *argv):
     return code, out, err
 
 
-#: a quick-look map: CI's first step builds at the default settings and checks every file
-QUICK = ("--voxel", "0.03", "--directions", "36", "--quiet")
+#: a quick look (coarse map, coarse carving): CI's first step builds at the defaults
+QUICK = ("--voxel", "0.05", "--directions", "16", "--resolution", "3", "--quiet")
 
 
 def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
@@ -39,7 +39,7 @@ def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
     # nothing half-written is left behind
     assert not list(b.rglob("*.tmp"))
     report = json.loads((b / "workspace" / "workspace.json").read_text())
-    assert (report["voxel_m"], report["directions"]) == (0.03, 36)
+    assert (report["voxel_m"], report["directions"]) == (0.05, 16)
 
 
 def test_build_from_a_design_file(tmp_path, capsys):

@@ -99,7 +99,7 @@ def test_library_errors_never_name_cli_options():
 def test_build_is_a_library_function_returning_what_it_wrote(tmp_path):
     # the CLI's build test checks the files; here the library's return value
     d = handarm.ArmDesign(link_lengths=[0.04] * 7, name="small")
-    result = handarm.build(d, tmp_path, voxel=0.05, directions=16)
+    result = handarm.build(d, tmp_path, voxel=0.05, directions=16, resolution_deg=3.0)
     assert result.out == tmp_path and result.design == d
     names = {p.relative_to(tmp_path).as_posix() for p in result.files}
     assert {"design.toml", "summary.txt", "plate.3mf", "small.urdf", "carve.json"} <= names

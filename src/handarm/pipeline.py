@@ -203,13 +203,19 @@ def map_workspace(
     if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
         raise ValueError(f"threshold: expected a number in (0, 1], got {threshold!r}")
     out = check_out_dir(out)
-    with tqdm(
-        desc="workspace", unit="query", unit_scale=True, disable=not progress, leave=False
-    ) as bar:
+    with (
+        tqdm(
+            desc="workspace", unit="query", unit_scale=True, disable=not progress, leave=False
+        ) as bar,
+        tqdm(desc="sensitivity screen", unit="map", disable=not progress, leave=False) as maps,
+    ):
 
-        def tick(done: int, total: int) -> None:
-            bar.total = total
-            bar.update(done - bar.n)
+        def ticker(b):
+            def tick(done: int, total: int) -> None:
+                b.total = total
+                b.update(done - b.n)
+
+            return tick
 
         return write_workspace_outputs(
             design,
@@ -218,7 +224,8 @@ def map_workspace(
             directions=directions,
             threshold=threshold,
             sensitivity=sensitivity,
-            progress=tick,
+            progress=ticker(bar),
+            sensitivity_progress=ticker(maps),
         )
 
 

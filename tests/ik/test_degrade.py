@@ -136,7 +136,10 @@ def test_two_dof_nearest_position_and_pointing():
 
 @pytest.mark.parametrize(
     ("q0_deg", "step"),
-    [([10, 30, -40, 30, 20, 10], [0.0015, 0, 0.0015]), ([20, 40, -30, 10, 40, 30], [0, 0, 0.002])],
+    [
+        ([10, 30, -40, 30, 20, 10], [0.0015, 0, 0.0015]),
+        pytest.param([20, 40, -30, 10, 40, 30], [0, 0, 0.002], marks=pytest.mark.slow),
+    ],
 )
 def test_outputs_move_continuously_out_of_reach(q0_deg, step):
     """A handheld user follows the answer: 2-3 mm target steps, small joint steps."""

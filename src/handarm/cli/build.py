@@ -15,7 +15,6 @@ from handarm.cli._common import (
     option_error,
 )
 
-
 #: build's own options, named in the message when the library refuses their value
 _BUILD_OPTIONS = {"voxel": "--voxel", "directions": "--directions"}
 

@@ -34,12 +34,14 @@ def write_workspace_outputs(
     sensitivity_voxel: float | None = None,
     sensitivity_directions: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    sensitivity_progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
     """Map, scores and pictures of ``design`` into ``out``; returns the paths written.
 
-    The sensitivity screen maps the design 28 more times: by default at no finer than 20 mm
+    The sensitivity screen maps the design 28 more times: by default at no finer than 30 mm
     and 36 directions (``sensitivity_voxel``, ``sensitivity_directions`` override), the
-    settings it used recorded beside it in ``workspace.json``.
+    settings it used recorded beside it in ``workspace.json``. ``progress(done, total)``
+    counts the map's queries, ``sensitivity_progress(done, total)`` the screen's maps.
     """
     out = Path(out)
     wmap = reachability_map(design, voxel, directions, progress=progress)
@@ -57,11 +59,15 @@ def write_workspace_outputs(
         "min_reach_check": min_reach_check(design),
     }
     if sensitivity:
-        s_voxel = max(voxel, 0.02) if sensitivity_voxel is None else sensitivity_voxel
+        s_voxel = max(voxel, 0.03) if sensitivity_voxel is None else sensitivity_voxel
         s_dirs = min(directions, 36) if sensitivity_directions is None else sensitivity_directions
         report["sensitivity_settings"] = {"voxel_m": s_voxel, "directions": s_dirs}
         report["sensitivity"] = global_sensitivity(
-            design, voxel=s_voxel, directions=s_dirs, threshold=threshold
+            design,
+            voxel=s_voxel,
+            directions=s_dirs,
+            threshold=threshold,
+            progress=sensitivity_progress,
         )
         written.append(
             sensitivity_picture(report["sensitivity"], out / "pictures" / "sensitivity.png")
