@@ -142,6 +142,7 @@ def test_degraded_result_exposes_its_relaxed_target(paper):
     ("kwargs", "match"),
     [
         ({"p": [1e300, 0, 0]}, "^p: "),
+        ({"p": [1e308, -1e308, 1e308]}, "^p: inf x the arm's reach"),
         ({"p": [40.0, 0, 0]}, "^p: .*metres"),
         ({"current": np.radians([30, 0, 0, 0, 0, 0]) * 60}, "^current: .*radians"),
         ({"e": [0, 0, 0]}, "^e: "),
@@ -149,6 +150,7 @@ def test_degraded_result_exposes_its_relaxed_target(paper):
         ({"degrade": "yes"}, "^degrade: "),
     ],
 )
+@pytest.mark.filterwarnings("error")  # refused cleanly: no overflow warning on the way
 def test_bad_inputs_name_the_argument(paper, kwargs, match):
     args = {"p": [0.2, 0.05, 0.05], "e": [1, 0, 0.3]} | kwargs
     with pytest.raises(ValueError, match=match):

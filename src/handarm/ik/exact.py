@@ -94,7 +94,12 @@ MAX_JOINT_ANGLE = 2.0 * math.pi
 def check_scale(design: ArmDesign, p: np.ndarray, name: str = "p") -> None:
     """ValueError naming ``name`` if a point lies beyond REACH_FACTOR x the arm's reach."""
     reach = float(np.sum(design.lengths))
-    dist = np.linalg.norm(p / max(reach, 1e-300), axis=-1)
+    # norm as big x norm(p / big): no overflow inside the norm; a distance past the float
+    # maximum is inf (and far), without a warning
+    big = np.abs(p).max(axis=-1, keepdims=True)
+    unit = np.divide(p, big, out=np.zeros_like(p), where=big > 0)
+    with np.errstate(over="ignore"):
+        dist = big[..., 0] / max(reach, 1e-300) * np.linalg.norm(unit, axis=-1)
     far = dist > REACH_FACTOR
     if np.any(far):
         where = "" if p.ndim == 1 else f"[{int(np.flatnonzero(far.reshape(-1))[0])}]"
