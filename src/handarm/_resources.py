@@ -99,9 +99,9 @@ def _check_settings(voxel, directions, resolution_deg) -> None:
     if directions is not None:
         if isinstance(directions, bool) or not isinstance(directions, int) or directions < 4:
             raise ValueError(f"directions: expected an integer >= 4, got {directions!r}")
-        from handarm.workspace.maps import direction_set
+        from handarm.workspace.maps import check_direction_count
 
-        direction_set(directions)  # a count the bands cannot make is refused, named, here
+        check_direction_count(directions)  # a count the bands cannot make, named, here
     if resolution_deg is not None and not (
         isinstance(resolution_deg, (int, float)) and 0.0 < resolution_deg <= 10.0
     ):

@@ -91,6 +91,7 @@ def _fibonacci(n):
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
 
 
+@pytest.mark.slow  # about a minute; level 3 is also checked by test_degrade_levels
 def test_three_dof_no_worse_than_sphere_grid():
     d = handarm.ArmDesign()
     rng = np.random.default_rng(0)

@@ -99,7 +99,7 @@ def _completeness(n_targets, seed):
 
 def test_completeness_by_dense_sampling():
     """Printed-link model (the default), paper's arm and random designs."""
-    _completeness(120, 7)
+    _completeness(60, 7)
 
 
 @pytest.mark.slow
@@ -270,7 +270,7 @@ def test_never_a_nan(p, e):
     _check_no_nan(p, e, degrade=False)
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=6, deadline=None)
 @given(p=_POINTS, e=_DIRECTIONS)
 def test_never_a_nan_degraded(p, e):
     """Degraded answers take about a second each: a few here, many under the slow marker."""

@@ -20,6 +20,25 @@ def coarse(design):
     return reachability_map(design, 0.03, 36)
 
 
+def test_direction_counts_are_known_without_building_them():
+    """The arithmetic count and nearest counts agree with building and scanning every count."""
+    from handarm.workspace.maps import _direction_bands, check_direction_count
+    from handarm.workspace.maps import nearest_direction_counts as nearest
+
+    valid = [n for n in range(4, 1100) if len(_direction_bands(n)) == n]
+    for n in range(4, 1000):
+        below = max(c for c in valid if c <= n)
+        above = min(c for c in valid if c >= n)
+        assert nearest(n) == (below, above), n
+        if n in valid:
+            check_direction_count(n)
+        else:
+            with pytest.raises(ValueError, match=f"^directions: {n} directions .* {below} and"):
+                check_direction_count(n)
+    with pytest.raises(ValueError, match="^directions: "):
+        check_direction_count(10**18 + 1)  # at once, nothing built
+
+
 def test_direction_set_is_even_and_mirror_symmetric():
     d = direction_set(100)
     assert len(d) == 100

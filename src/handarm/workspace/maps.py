@@ -64,28 +64,55 @@ def direction_set(n: int = 100) -> np.ndarray:
         If ``n`` is not an integer >= 4 or not a count the construction makes; the message
         names the nearest valid counts.
     """
+    check_direction_count(n)
+    return _direction_bands(int(n))
+
+
+def check_direction_count(n) -> None:
+    """ValueError naming ``directions`` unless ``direction_set(n)`` makes exactly n directions.
+
+    Arithmetic only (no directions are built), so a huge count is refused at once.
+    """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 4:
         raise ValueError(f"directions: expected an integer >= 4, got {n!r}")
-    dirs = _direction_bands(int(n))
-    if len(dirs) != n:
+    if _band_count(int(n)) != n:
         below, above = nearest_direction_counts(int(n))
         raise ValueError(
             f"directions: {n} directions cannot be spread evenly and mirror-symmetrically; "
             f"nearest valid counts: {below} and {above}"
         )
-    return dirs
 
 
 def nearest_direction_counts(n: int) -> tuple[int, int]:
-    """The largest valid direction count <= ``n`` and the smallest >= ``n``."""
-    below = next(c for c in range(n, 3, -1) if len(_direction_bands(c)) == c)
-    above = next(c for c in range(max(n, 4), 4 * n + 8) if len(_direction_bands(c)) == c)
-    return below, above
+    """The largest valid direction count <= ``n`` and the smallest >= ``n``.
+
+    Valid counts are products m k of the construction; the candidates near n (m within a
+    few of sqrt(n), k even near n / m) hold both neighbours (a test checks this against a
+    scan of every count), so any n is answered at once.
+    """
+    r = math.isqrt(max(n, 4))
+    cands = {4}
+    for m in range(max(2, r - 4), r + 6):
+        for k in range(max(2, 2 * (n // (2 * m)) - 6), 2 * (n // (2 * m)) + 10, 2):
+            if _band_count(m * k) == m * k:
+                cands.add(m * k)
+    return max(c for c in cands if c <= n), min(c for c in cands if c >= max(n, 4))
+
+
+def _bands(n: int) -> tuple[int, int]:
+    """(m bands, k directions per band) of the construction for a requested count n."""
+    m = max(2, round(math.sqrt(n)))
+    return m, max(2, 2 * round(n / (2 * m)))
+
+
+def _band_count(n: int) -> int:
+    """How many directions ``_direction_bands(n)`` makes: m bands of k (k even)."""
+    m, k = _bands(n)
+    return m * k
 
 
 def _direction_bands(n: int) -> np.ndarray:
-    m = max(2, round(math.sqrt(n)))
-    k = max(2, 2 * round(n / (2 * m)))
+    m, k = _bands(n)
     x = -1.0 + (2.0 * np.arange(m) + 1.0) / m
     r = np.sqrt(1.0 - x * x)
     out = []
