@@ -278,7 +278,7 @@ def test_never_a_nan_degraded(p, e):
 
 
 @pytest.mark.slow
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(p=_POINTS, e=_DIRECTIONS)
 def test_never_a_nan_degraded_many(p, e):
     _check_no_nan(p, e, degrade=True)
