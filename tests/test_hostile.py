@@ -378,7 +378,7 @@ def test_ctrl_c_during_build_is_exit_130_and_one_line(tmp_path, delay):
 @pytest.mark.slow
 def test_ctrl_c_during_a_study_stops_workers_quietly(tmp_path):
     study = tmp_path / "s.toml"
-    study.write_text('name = "s"\nvoxel = 0.04\ndirections = 8\n[grid]\nlimit_deg_2 = [120, 150]\n')
+    study.write_text('name = "s"\nvoxel = 0.04\ndirections = 12\n[grid]\nlimit_deg_2 = [120, 150]\n')
     code, err, took = _interrupt(["study", study, "--out", tmp_path / "o", "--quiet"], 25, None)
     if code == 0:
         return
