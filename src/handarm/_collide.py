@@ -258,10 +258,28 @@ def _collide_placed(
 
 @nb.njit(**JIT)
 def _apart(ax, ay, az, ra, bx, by, bz, rb):
-    """Two spheres (centres, radii) are farther apart than their radii."""
+    """Two spheres (centres, radii) are farther apart than their radii (a radius may be < 0)."""
     ex, ey, ez = ax - bx, ay - by, az - bz
     reach = ra + rb
+    if reach < 0.0:
+        return True
     return ex * ex + ey * ey + ez * ez > reach * reach
+
+
+@nb.njit(**JIT)
+def _contact(xy, pi, pf, i, j, gi, gj, dx, dy, fx, fy, c):
+    """Whether placed pieces i, j are in contact, radii grown by gi, gj (< 0 shrinks).
+
+    The model's two tests: bounding spheres that overlap and pieces that meet.
+    """
+    if _apart(xy[i, 4], xy[i, 5], xy[i, 6], pf[i, 7] + gi,
+              xy[j, 4], xy[j, 5], xy[j, 6], pf[j, 7] + gj + c):  # fmt: skip
+        return False
+    return _collide_placed(
+        xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3], pf[i, 4] + gi, pf[i, 5], pf[i, 6], pi[i, 2],
+        xy[j, 0], xy[j, 1], xy[j, 2], xy[j, 3], pf[j, 4] + gj, pf[j, 5], pf[j, 6], pi[j, 2],
+        dx, dy, fx, fy, c,
+    )  # fmt: skip
 
 
 @nb.njit(**JIT)
@@ -270,10 +288,11 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
 
     A piece moves at most ``grow = min(coef[i, 0] @ motion, coef[i, 1] @ motion)`` (see
     ``handarm.collision.motion_coefficients``; ``motion`` is None-like when ``motion[0] < 0``:
-    nothing moves). Returns (hit, unsure): ``hit`` when some pair collides with its pieces
-    shrunk by ``grow`` (so it collides wherever the pieces are within ``grow`` of where they
-    are placed), else ``unsure``, the mask of groups where some pair collides with its pieces
-    grown but not shrunk; the other groups are free. With nothing moving this is the model
+    nothing moves). Returns (hit, unsure): ``hit`` when some pair, and its group's bounding
+    pair, are in contact (``_contact``) with their pieces shrunk by ``grow`` (so the model
+    finds contact wherever the pieces are within ``grow`` of where they are placed), else
+    ``unsure``, the mask of groups where some pair is in contact with its pieces grown but not
+    shrunk; the other groups are free. With nothing moving this is the model
     itself. One function for every group: numba counts a reference for every array
     argument of every call, which would cost more than the geometry.
     """
@@ -313,30 +332,21 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                         grow = min(g0, g1)
                     xy[k, 7] = grow
             gi, gj = xy[i, 7], xy[j, 7]
-            if _apart(xy[i, 4], xy[i, 5], xy[i, 6], pf[i, 7] + gi,
-                      xy[j, 4], xy[j, 5], xy[j, 6], pf[j, 7] + gj + c):  # fmt: skip
-                if r == first:
-                    break
-                continue
-            meet = _collide_placed(
-                xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3], pf[i, 4] + gi, pf[i, 5], pf[i, 6],
-                pi[i, 2], xy[j, 0], xy[j, 1], xy[j, 2], xy[j, 3], pf[j, 4] + gj, pf[j, 5],
-                pf[j, 6], pi[j, 2], dx, dy, fx, fy, c,
-            )  # fmt: skip
-            if not meet:
+            if not _contact(xy, pi, pf, i, j, gi, gj, dx, dy, fx, fy, c):
                 if r == first:
                     break
                 continue
             if r == first and not single:
                 continue  # the bounding pieces meet: look at the pieces
-            if gi == 0.0 and gj == 0.0:
-                return True, 0
-            if _collide_placed(
-                xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3], pf[i, 4] - gi, pf[i, 5], pf[i, 6],
-                pi[i, 2], xy[j, 0], xy[j, 1], xy[j, 2], xy[j, 3], pf[j, 4] - gj, pf[j, 5],
-                pf[j, 6], pi[j, 2], dx, dy, fx, fy, c,
-            ):  # fmt: skip
-                return True, 0
+            if (gi == 0.0 and gj == 0.0) or _contact(xy, pi, pf, i, j, -gi, -gj, dx, dy, fx, fy, c):
+                # contact all along, if the group's bounding pieces (the model tests them
+                # first) are also in contact all along
+                bi, bj = groups[g, 0], groups[g, 1]
+                gbi, gbj = xy[bi, 7], xy[bj, 7]
+                if single or (gbi == 0.0 and gbj == 0.0):
+                    return True, 0
+                if _contact(xy, pi, pf, bi, bj, -gbi, -gbj, dx, dy, fx, fy, c):
+                    return True, 0
             unsure |= 1 << g
     return False, unsure
 
