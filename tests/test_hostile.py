@@ -378,12 +378,51 @@ def test_ctrl_c_during_build_is_exit_130_and_one_line(tmp_path, delay):
 @pytest.mark.slow
 def test_ctrl_c_during_a_study_stops_workers_quietly(tmp_path):
     study = tmp_path / "s.toml"
-    study.write_text('name = "s"\nvoxel = 0.04\ndirections = 12\n[grid]\nlimit_deg_2 = [120, 150]\n')
+    study.write_text(
+        'name = "s"\nvoxel = 0.04\ndirections = 12\n[grid]\nlimit_deg_2 = [120, 150]\n'
+    )
     code, err, took = _interrupt(["study", study, "--out", tmp_path / "o", "--quiet"], 25, None)
     if code == 0:
         return
     assert code == 130 and "Traceback" not in err, err
     assert len(err.strip().splitlines()) == 1 and took < 10
+
+
+_CTRL_C_IN_A_CALLBACK = """
+import os, signal, sys, time, weakref
+from handarm import cli
+from handarm.cli import build
+
+class Thing:
+    pass
+
+def slow_callback(ref):
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(0.5)  # the KeyboardInterrupt is raised here, inside the weakref callback
+
+def command(args):
+    thing = Thing()
+    ref = weakref.ref(thing, slow_callback)
+    del thing  # the callback runs now: Python can only ignore what it raises
+    time.sleep(4)
+    print("finished")
+    return 0
+
+build.cmd_build = command
+sys.exit(cli.main(["build", "--out", sys.argv[1]]))
+"""
+
+
+def test_ctrl_c_inside_a_callback_python_ignores_still_ends_the_command(tmp_path):
+    """Ctrl-C landing in a weakref callback (seen in CI during a build): one line, exit 130."""
+    script = tmp_path / "callback.py"
+    script.write_text(_CTRL_C_IN_A_CALLBACK)
+    done = subprocess.run(
+        [sys.executable, script, tmp_path / "b"], capture_output=True, text=True, env=ENV
+    )
+    assert done.returncode == 130, done.stderr
+    assert done.stderr == "handarm build: interrupted\n"
+    assert "finished" not in done.stdout  # ended in its sleep, not after it
 
 
 # -- 2. carving never writes an unprintable part ---------------------------------------------

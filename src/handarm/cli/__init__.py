@@ -7,6 +7,7 @@ Exit statuses (one source: ``EXIT_CODES``, printed in the README's table):
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import importlib
 import os
@@ -65,6 +66,7 @@ class _Interrupts:
         self.importing = False
         self.reported = False
         self.name = "handarm"
+        self.previous_hook = sys.unraisablehook
 
     def __call__(self, signum, frame) -> None:
         if self.importing:
@@ -75,6 +77,20 @@ class _Interrupts:
             watchdog.daemon = True
             watchdog.start()
         raise KeyboardInterrupt
+
+    def unraisable(self, info) -> None:
+        """``sys.unraisablehook``: a Ctrl-C raised inside a callback Python ignores.
+
+        A KeyboardInterrupt raised while a weakref callback or a finalizer runs cannot
+        propagate: Python would print "Exception ignored in ..." with a traceback and go on.
+        It is delivered again to the command instead, silently.
+        """
+        if info.exc_type is not None and issubclass(info.exc_type, KeyboardInterrupt):
+            again = threading.Timer(0.01, _thread.interrupt_main)
+            again.daemon = True
+            again.start()
+            return
+        self.previous_hook(info)
 
     def exit_now(self) -> None:
         if not self.reported:
@@ -114,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     interrupts = _Interrupts()
     previous = signal.signal(signal.SIGINT, interrupts)
+    interrupts.previous_hook, sys.unraisablehook = sys.unraisablehook, interrupts.unraisable
     name = "handarm"
     try:
         parser = make_parser()
@@ -144,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         return status
     finally:
         signal.signal(signal.SIGINT, previous)
+        sys.unraisablehook = interrupts.previous_hook
 
 
 def _one_line(exc: BaseException) -> str:
