@@ -15,6 +15,7 @@ import collections
 import time
 
 import numpy as np
+from _targets import fk_targets
 
 import handarm
 from handarm import ik
@@ -27,8 +28,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
-    q = rng.uniform(d.lower, d.upper, (8 * args.targets, 6))
-    P, E = handarm.forward(d, q[handarm.is_valid(d, q)][: args.targets])
+    P, E = fk_targets(d, rng, args.targets)
     push = rng.uniform(0.002, 0.15, len(P))[:, None]
     far = P + push * P / np.linalg.norm(P, axis=1, keepdims=True)
     ik.solve(d, far[0], E[0])  # compile

@@ -13,6 +13,7 @@ import argparse
 import time
 
 import numpy as np
+from _targets import fk_targets
 
 import handarm
 from handarm import ik
@@ -37,8 +38,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
-    q = rng.uniform(d.lower, d.upper, (8 * args.targets, 6))
-    P, E = handarm.forward(d, q[handarm.is_valid(d, q)][: args.targets])
+    P, E = fk_targets(d, rng, args.targets)
     scenes = {n: boxes(rng, n) for n in (1, 10, 100)}
     ik.solve(d, P[0], E[0], scene=scenes[1])  # compile
     rows = []

@@ -9,8 +9,10 @@ It draws the default design's carved links, handle, servos and pulleys with the 
 from pathlib import Path
 
 import handarm
-from handarm.cad_out.handle_files import assembled_meshes
-from handarm.cad_out.handle_files import _picture  # noqa: PLC2701 - the build's own drawing
+from handarm.cad_out.handle_files import (
+    _picture,  # noqa: PLC2701 - the build's own drawing
+    assembled_meshes,
+)
 from handarm.carve import carve
 from handarm.handle import handle
 

@@ -84,6 +84,27 @@ def add_limits(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: The map options' library argument names and the CLI options that set them.
+MAP_OPTIONS = {"voxel": "--voxel", "directions": "--directions"}
+
+
+def add_map_options(p: argparse.ArgumentParser) -> None:
+    """--voxel and --directions: the workspace map's resolution (build and workspace)."""
+    p.add_argument(
+        "--voxel",
+        type=number(low=1e-4),
+        default=0.01,
+        metavar="M",
+        help="workspace map voxel edge, m (default 0.01; 0.03 for a quick look)",
+    )
+    p.add_argument(
+        "--directions",
+        type=number(int, low=4),
+        default=100,
+        help="workspace map approach directions (default 100; 36 for a quick look)",
+    )
+
+
 def limits(args: argparse.Namespace) -> dict:
     """The library's ``max_memory`` / ``max_seconds`` arguments from the options."""
     return {"max_memory": args.max_memory * 2**30, "max_seconds": args.max_minutes * 60}

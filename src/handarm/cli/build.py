@@ -6,17 +6,16 @@ import argparse
 import math
 
 from handarm.cli._common import (
+    MAP_OPTIONS,
     add_design_arg,
     add_limits,
+    add_map_options,
     add_quiet,
     limits,
     load_design,
     number,
     option_error,
 )
-
-#: build's own options, named in the message when the library refuses their value
-_BUILD_OPTIONS = {"voxel": "--voxel", "directions": "--directions"}
 
 
 def _add_resolution(p) -> None:
@@ -45,7 +44,7 @@ def cmd_build(args: argparse.Namespace) -> int:
             **limits(args),
         )
     except ValueError as exc:
-        raise option_error(exc, _BUILD_OPTIONS) from None
+        raise option_error(exc, MAP_OPTIONS) from None
     for path in result.files:
         print(path)
     return 0
@@ -96,19 +95,7 @@ def register(sub) -> None:
     add_design_arg(p)
     p.add_argument("--out", default="build", help="output folder (default: build)")
     _add_resolution(p)
-    p.add_argument(
-        "--voxel",
-        type=number(low=1e-4),
-        default=0.01,
-        metavar="M",
-        help="workspace map voxel edge, m (default 0.01; 0.03 for a quick look)",
-    )
-    p.add_argument(
-        "--directions",
-        type=number(int, low=4),
-        default=100,
-        help="workspace map approach directions (default 100; 36 for a quick look)",
-    )
+    add_map_options(p)
     add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_build)

@@ -6,8 +6,10 @@ import argparse
 import json
 
 from handarm.cli._common import (
+    MAP_OPTIONS,
     add_design_arg,
     add_limits,
+    add_map_options,
     add_quiet,
     limits,
     load_design,
@@ -15,11 +17,7 @@ from handarm.cli._common import (
     option_error,
 )
 
-_MAP_OPTIONS = {
-    "voxel": "--voxel",
-    "directions": "--directions",
-    "threshold": "--threshold",
-}
+_WORKSPACE_OPTIONS = {**MAP_OPTIONS, "threshold": "--threshold"}
 
 
 def cmd_workspace(args: argparse.Namespace) -> int:
@@ -39,7 +37,7 @@ def cmd_workspace(args: argparse.Namespace) -> int:
             **limits(args),
         )
     except ValueError as exc:
-        raise option_error(exc, _MAP_OPTIONS) from None
+        raise option_error(exc, _WORKSPACE_OPTIONS) from None
     report = json.loads(next(p for p in paths if p.name == "workspace.json").read_text())
     sc = report["scores"]
     print(
@@ -109,12 +107,7 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--out", default="build/workspace", help="output folder")
-    p.add_argument(
-        "--voxel", type=number(low=1e-4), default=0.01, metavar="M", help="voxel edge, m (0.01)"
-    )
-    p.add_argument(
-        "--directions", type=number(int, low=4), default=100, help="approach directions (100)"
-    )
+    add_map_options(p)
     p.add_argument(
         "--threshold",
         type=number(low=1e-9, high=1.0),
