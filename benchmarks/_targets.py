@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 import handarm
@@ -14,3 +16,11 @@ def fk_targets(design: handarm.ArmDesign, rng: np.random.Generator, n: int):
         q = rng.uniform(design.lower, design.upper, (8 * n, 6))
         found.append(q[handarm.is_valid(design, q)])
     return handarm.forward(design, np.concatenate(found)[:n])
+
+
+def arguments(doc: str, targets: int, argv=None) -> argparse.Namespace:
+    """--targets (default ``targets``) and --seed, with the script's docstring as help."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--targets", type=int, default=targets)
+    ap.add_argument("--seed", type=int, default=0)
+    return ap.parse_args(argv)

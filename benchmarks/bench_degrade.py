@@ -10,22 +10,18 @@ reachable FK targets measured in the same run (the peer), and the ratio.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import time
 
 import numpy as np
-from _targets import fk_targets
+from _targets import arguments, fk_targets
 
 import handarm
 from handarm import ik
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--targets", type=int, default=40)
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args(argv)
+    args = arguments(__doc__, 40, argv)
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
     P, E = fk_targets(d, rng, args.targets)

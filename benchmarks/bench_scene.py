@@ -9,11 +9,10 @@ free-space solve measured in the same run, and how many ranges the scenes leave.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
-from _targets import fk_targets
+from _targets import arguments, fk_targets
 
 import handarm
 from handarm import ik
@@ -32,10 +31,7 @@ def boxes(rng, n) -> Scene:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--targets", type=int, default=200)
-    ap.add_argument("--seed", type=int, default=0)
-    args = ap.parse_args(argv)
+    args = arguments(__doc__, 200, argv)
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
     P, E = fk_targets(d, rng, args.targets)

@@ -16,7 +16,9 @@ Every test of the model is monotone in the pieces' radii, so:
 
 * if the model finds no contact with every radius grown by its piece's delta, no
   configuration of the stretch has one (the stretch is free for that link pair);
-* if it finds contact with every radius shrunk by delta, every configuration has one.
+* if it finds contact with every radius shrunk by delta, every configuration has one
+  (contact being the model's whole test: bounding spheres, then pieces, for the pair and its
+  group's bounding pair, see ``handarm._collide.groups_status``).
 
 A stretch where neither holds is halved, down to ``TOL`` (5e-10 m); a stretch that narrow is
 decided by the model at its middle. So no change of validity wider than ``TOL`` is missed,
