@@ -267,6 +267,46 @@ def _apart(ax, ay, az, ra, bx, by, bz, rb):
 
 
 @nb.njit(**JIT)
+def cover_search(along, across):
+    """The stadium of least area over candidate axes (``handarm.collision.stadium_cover``).
+
+    ``along``, ``across`` (m, n): the points' coordinates along and across each of m axes.
+    Along each axis the segment runs on the middle line of the points' extent across it; its
+    ends are searched on a 7 x 7 grid (start in the lower half of the extent along, end in
+    the upper half) refined three times. Returns (axis, start, end, middle line).
+    """
+    m, n = along.shape
+    best, best_k, best_s0, best_s1, best_mid = math.inf, 0, 0.0, 0.0, 0.0
+    for k in range(m):
+        middle = 0.5 * (across[k].max() + across[k].min())
+        lo, hi = along[k].min(), along[k].max()
+        mid = 0.5 * (lo + hi)
+        a0, a1, b0, b1 = lo, mid, mid, hi
+        for _ in range(3):
+            top, t0, t1 = math.inf, a0, b1
+            for i in range(7):
+                s0 = a0 + i / 6.0 * (a1 - a0)
+                for j in range(7):
+                    s1 = b0 + j / 6.0 * (b1 - b0)
+                    r2 = 0.0
+                    for p in range(n):
+                        u = along[k, p]
+                        t = min(max(u, s0), s1)
+                        w = across[k, p] - middle
+                        r2 = max(r2, (u - t) ** 2 + w * w)
+                    r = math.sqrt(r2)
+                    area = 2.0 * r * (s1 - s0) + math.pi * r * r
+                    if area < top:
+                        top, t0, t1 = area, s0, s1
+            if top < best:
+                best, best_k, best_s0, best_s1, best_mid = top, k, t0, t1, middle
+            h0, h1 = (a1 - a0) / 6.0, (b1 - b0) / 6.0
+            a0, a1 = max(lo, t0 - h0), min(mid, t0 + h0)
+            b0, b1 = max(mid, t1 - h1), min(hi, t1 + h1)
+    return best_k, best_s0, best_s1, best_mid
+
+
+@nb.njit(**JIT)
 def _contact(xy, pi, pf, i, j, gi, gj, dx, dy, fx, fy, c):
     """Whether placed pieces i, j are in contact, radii grown by gi, gj (< 0 shrinks).
 

@@ -184,6 +184,8 @@ def stadium_cover(points) -> tuple[np.ndarray, float]:
     found by a grid search refined three times. A rectangle gets its exact cover: the
     segment along its long middle line, the radius half its width.
     """
+    from handarm._collide import cover_search  # numba: compiled on first use, not at import
+
     pts = np.asarray(points, dtype=float)
     centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
     x = pts - centre
@@ -198,29 +200,11 @@ def stadium_cover(points) -> tuple[np.ndarray, float]:
     for i in np.argsort(-lengths)[:4]:
         if lengths[i] > 1e-9 * spread:
             dirs.append(edges[i] / lengths[i])
-    best = (math.inf, None, None)
-    for axis in dirs:
-        perp = np.array([-axis[1], axis[0]])
-        along, across = x @ axis, x @ perp
-        base = centre + 0.5 * (across.max() + across.min()) * perp
-        lo, hi = float(along.min()), float(along.max())
-        mid = 0.5 * (lo + hi)
-        r0, r1 = (lo, mid), (mid, hi)
-        for _ in range(3):
-            s0, s1 = np.meshgrid(np.linspace(*r0, 7), np.linspace(*r1, 7), indexing="ij")
-            s0, s1 = s0.ravel(), s1.ravel()
-            # distance of every point to every candidate segment [s0, s1] along the axis
-            t = np.clip(along[None, :], s0[:, None], s1[:, None])
-            r = np.sqrt((along[None, :] - t) ** 2 + (across[None, :] - (base - centre) @ perp) ** 2)
-            r = r.max(axis=1)
-            area = 2.0 * r * (s1 - s0) + math.pi * r * r
-            k = int(np.argmin(area))
-            if area[k] < best[0]:
-                best = (float(area[k]), base + s0[k] * axis, base + s1[k] * axis)
-            h0, h1 = (r0[1] - r0[0]) / 6, (r1[1] - r1[0]) / 6
-            r0 = (max(lo, s0[k] - h0), min(mid, s0[k] + h0))
-            r1 = (max(mid, s1[k] - h1), min(hi, s1[k] + h1))
-    _, a, b = best
+    axis = np.array(dirs)
+    perp = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
+    k, s0, s1, middle = cover_search(axis @ x.T, perp @ x.T)
+    base = centre + middle * perp[k]
+    a, b = base + s0 * axis[k], base + s1 * axis[k]
     r = float(_dist_to_segment(pts, a, b).max())
     return np.array([a, b]), r * (1.0 + 1e-12) + 1e-12 * spread
 
