@@ -3,9 +3,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from handarm import ArmDesign
+from handarm._outdir import INCOMPLETE, LOCK, MANIFEST
 from handarm.cli import main, make_parser
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,36 +23,35 @@ def run(capsys, *argv):
 QUICK = ("--voxel", "0.05", "--directions", "16", "--resolution", "3", "--quiet")
 
 
-def test_build_writes_design_urdf_summary_and_carving(tmp_path, capsys):
-    code, out, err = run(capsys, "build", "--out", str(tmp_path / "b"), *QUICK)
+def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
+    """A design file (own name, shorter links) in, every kind of file out (one build)."""
+    d = ArmDesign(name="mine", link_lengths=[0.045] * 7)
+    d.to_toml(tmp_path / "mine.toml")
+    code, out, err = run(
+        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "b"), *QUICK
+    )
     assert code == 0, err
     b = tmp_path / "b"
-    assert ArmDesign.from_toml(b / "design.toml") == ArmDesign()
-    urdf = (b / "paper_arm.urdf").read_text()
+    assert ArmDesign.from_toml(b / "design.toml") == d
+    urdf = (b / "mine.urdf").read_text()
     assert urdf.startswith("<?xml") and "meshes/l3.stl" in urdf and "<inertial>" in urdf
     assert "joint" in (b / "summary.txt").read_text()
     assert (b / "plate.3mf").stat().st_size > 1000
     assert len(list((b / "meshes").glob("l*.stl"))) == 7
     assert (b / "pictures" / "arm_folded.png").exists()
     controller = json.loads((b / "controller" / "controller.json").read_text())
-    # the carving's achieved limits, within the design's
-    assert controller["joint_limits_rad"][0][1] == pytest.approx(ArmDesign().upper[0])
+    carving = json.loads((b / "carve.json").read_text())
+    # the controller holds the design's limits cut to what the carved parts allow
+    achieved = np.radians([j["achieved_deg"] for j in carving["joints"]])
+    allowed = np.stack([np.maximum(d.lower, achieved[:, 0]), np.minimum(d.upper, achieved[:, 1])])
+    np.testing.assert_allclose(controller["joint_limits_rad"], allowed.T, rtol=0, atol=1e-9)
     assert (b / "controller" / "arm_config.h").exists()
-    # nothing half-written is left behind
-    assert not list(b.rglob("*.tmp"))
+    # nothing half-written is left behind; every file is printed but the folder's own records
+    assert not list(b.rglob("*.tmp")) and not (b / INCOMPLETE).exists()
+    files = {p for p in b.rglob("*") if p.is_file()} - {b / MANIFEST, b / LOCK}
+    assert {Path(line) for line in out.split()} == files
     report = json.loads((b / "workspace" / "workspace.json").read_text())
     assert (report["voxel_m"], report["directions"]) == (0.05, 16)
-
-
-def test_build_from_a_design_file(tmp_path, capsys):
-    d = ArmDesign(name="mine", link_lengths=[0.04] * 7)
-    d.to_toml(tmp_path / "mine.toml")
-    code, _, err = run(
-        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "o"), *QUICK
-    )
-    assert code == 0, err
-    assert ArmDesign.from_toml(tmp_path / "o" / "design.toml") == d
-    assert (tmp_path / "o" / "mine.urdf").exists()
 
 
 def test_build_map_settings_are_checked_before_any_work(tmp_path, capsys):
