@@ -18,12 +18,22 @@ def _abort(signum, frame) -> None:  # nothing has been written yet: leave at onc
     os._exit(130)
 
 
-_signal.signal(_signal.SIGINT, _abort)  # at import: the console script imports, then calls
+def _take_sigint() -> None:
+    """Handle SIGINT from now on, unless it was ignored when the process started.
+
+    ``nohup`` and a shell's background jobs start commands with SIGINT ignored; Python
+    leaves an inherited ignore alone, and so does handarm.
+    """
+    if _signal.getsignal(_signal.SIGINT) is not _signal.SIG_IGN:
+        _signal.signal(_signal.SIGINT, _abort)
+
+
+_take_sigint()  # at import: the console script imports, then calls
 
 
 def main() -> int:
     """Run ``handarm.cli.main`` with Ctrl-C ending the process cleanly during imports."""
-    _signal.signal(_signal.SIGINT, _abort)
+    _take_sigint()
     from handarm.cli import main as run
 
     return run()

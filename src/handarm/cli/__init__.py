@@ -129,7 +129,9 @@ def make_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     interrupts = _Interrupts()
-    previous = signal.signal(signal.SIGINT, interrupts)
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.SIG_IGN:  # an inherited ignore (nohup) is left alone
+        signal.signal(signal.SIGINT, interrupts)
     interrupts.previous_hook, sys.unraisablehook = sys.unraisablehook, interrupts.unraisable
     name = "handarm"
     try:
