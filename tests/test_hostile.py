@@ -454,7 +454,11 @@ def test_ctrl_c_inside_a_callback_python_ignores_still_ends_the_command(tmp_path
     script = tmp_path / "callback.py"
     script.write_text(_CTRL_C_IN_A_CALLBACK)
     done = subprocess.run(
-        [sys.executable, script, tmp_path / "b"], capture_output=True, text=True, env=ENV
+        [sys.executable, script, tmp_path / "b"],
+        capture_output=True,
+        text=True,
+        env=ENV,
+        preexec_fn=_as_at_a_terminal,
     )
     assert done.returncode == 130, done.stderr
     assert done.stderr == "handarm build: interrupted\n"
