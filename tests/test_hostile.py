@@ -344,8 +344,9 @@ def test_fifo_as_design_file_does_not_hang(tmp_path):
 def _as_at_a_terminal() -> None:
     """In the child before exec: SIGINT at its default, as a terminal starts a command.
 
-    A child inherits an ignored SIGINT; something in a long pytest run (seen in CI, at the
-    slow suite) had left the test process ignoring it, and Ctrl-C then rightly did nothing.
+    A child inherits an ignored SIGINT, and a test run started in the background by a
+    non-interactive shell (``bash -c 'bash .ci/run &'``) ignores it: the command would then
+    rightly ignore Ctrl-C too (``test_an_inherited_ignored_sigint_is_left_alone``).
     """
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
