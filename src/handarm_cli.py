@@ -34,9 +34,28 @@ _take_sigint()  # at import: the console script imports, then calls
 def main() -> int:
     """Run ``handarm.cli.main`` with Ctrl-C ending the process cleanly during imports."""
     _take_sigint()
+    from handarm.cli import EXIT_INTERRUPTED
     from handarm.cli import main as run
 
-    return run()
+    status = run()
+    if status == EXIT_INTERRUPTED:
+        _quiet_teardown()
+    return status
+
+
+def _quiet_teardown() -> None:
+    """After "interrupted" is reported, the interpreter's teardown says nothing more.
+
+    A Ctrl-C can land inside a library's constructor (seen in CI: llvmlite's ``ObjectRef``);
+    the half-built object's finalizer then fails while Python exits and prints "Exception
+    ignored in ..." with a traceback. The command has already cleaned up and reported; what
+    remains is noise about objects the interrupt cut short.
+    """
+    sys.stderr.flush()
+    sys.unraisablehook = lambda info: None
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    os.close(devnull)
 
 
 if __name__ == "__main__":

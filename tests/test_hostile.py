@@ -452,18 +452,63 @@ sys.exit(cli.main(["build", "--out", sys.argv[1]]))
 
 def test_ctrl_c_inside_a_callback_python_ignores_still_ends_the_command(tmp_path):
     """Ctrl-C landing in a weakref callback (seen in CI during a build): one line, exit 130."""
-    script = tmp_path / "callback.py"
-    script.write_text(_CTRL_C_IN_A_CALLBACK)
-    done = subprocess.run(
+    _assert_one_line_and_130(_run_script(tmp_path, _CTRL_C_IN_A_CALLBACK))
+
+
+def _run_script(tmp_path, source: str) -> subprocess.CompletedProcess:
+    script = tmp_path / "command.py"
+    script.write_text(source)
+    return subprocess.run(
         [sys.executable, script, tmp_path / "b"],
         capture_output=True,
         text=True,
         env=ENV,
         preexec_fn=_as_at_a_terminal,
     )
+
+
+def _assert_one_line_and_130(done: subprocess.CompletedProcess) -> None:
     assert done.returncode == 130, done.stderr
     assert done.stderr == "handarm build: interrupted\n"
-    assert "finished" not in done.stdout  # ended in its sleep, not after it
+    assert "finished" not in done.stdout  # ended where the interrupt landed, not after it
+
+
+_CTRL_C_IN_A_CONSTRUCTOR = """
+import os, signal, sys, time
+import handarm_cli
+from handarm.cli import build
+
+class Handle:  # as llvmlite's ObjectRef: __del__ needs what __init__ had not yet set
+    def __init__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)  # the KeyboardInterrupt is raised here
+        self.handle = 1
+
+    def __del__(self):
+        del self.handle
+
+kept = []
+
+class Keeper(Handle):
+    def __new__(cls):
+        self = super().__new__(cls)
+        kept.append(self)  # lives until the interpreter's teardown
+        return self
+
+def command(args):
+    Keeper()
+    print("finished")
+    return 0
+
+build.cmd_build = command
+sys.argv = ["handarm", "build", "--out", sys.argv[1]]
+sys.exit(handarm_cli.main())
+"""
+
+
+def test_ctrl_c_inside_a_constructor_leaves_no_teardown_noise(tmp_path):
+    """CI: Ctrl-C in llvmlite's ObjectRef.__init__; its __del__ failed at exit, a traceback."""
+    _assert_one_line_and_130(_run_script(tmp_path, _CTRL_C_IN_A_CONSTRUCTOR))
 
 
 # -- 2. carving never writes an unprintable part ---------------------------------------------

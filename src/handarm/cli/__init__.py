@@ -83,14 +83,17 @@ class _Interrupts:
 
         A KeyboardInterrupt raised while a weakref callback or a finalizer runs cannot
         propagate: Python would print "Exception ignored in ..." with a traceback and go on.
-        It is delivered again to the command instead, silently.
+        It is delivered again to the command instead, silently. Once a Ctrl-C has arrived,
+        any other such report is about an object the interrupt cut short (a finalizer of a
+        half-built object) and is dropped too.
         """
         if info.exc_type is not None and issubclass(info.exc_type, KeyboardInterrupt):
             again = threading.Timer(0.01, _thread.interrupt_main)
             again.daemon = True
             again.start()
             return
-        self.previous_hook(info)
+        if not self.seen:
+            self.previous_hook(info)
 
     def exit_now(self) -> None:
         if not self.reported:
