@@ -1,6 +1,8 @@
 import json
+import math
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +26,14 @@ QUICK = ("--voxel", "0.05", "--directions", "16", "--resolution", "3", "--quiet"
 
 
 def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
-    """A design file (own name, shorter links) in, every kind of file out (one build)."""
-    d = ArmDesign(name="mine", link_lengths=[0.045] * 7)
+    """A design file (own name, shorter links) in, every kind of file out (one build).
+
+    Joint 2 asks for +-180 degrees, more than the printed links allow: the build carves the
+    largest healthy range, and everything after the carving uses the narrowed limits.
+    """
+    limits = list(ArmDesign().joint_limits)
+    limits[1] = (-math.pi, math.pi)
+    d = ArmDesign(name="mine", link_lengths=[0.045] * 7, joint_limits=limits)
     d.to_toml(tmp_path / "mine.toml")
     code, out, err = run(
         capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "b"), *QUICK
@@ -45,6 +53,29 @@ def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
     achieved = np.radians([j["achieved_deg"] for j in carving["joints"]])
     allowed = np.stack([np.maximum(d.lower, achieved[:, 0]), np.minimum(d.upper, achieved[:, 1])])
     np.testing.assert_allclose(controller["joint_limits_rad"], allowed.T, rtol=0, atol=1e-9)
+    narrow = math.pi - math.radians(5)  # joint 2 (column 1) was cut well inside +-180
+    assert -narrow < allowed[0, 1] and allowed[1, 1] < narrow
+    # the URDF, the MuJoCo model and the map describe the same arm as the controller
+    urdf_limits = [
+        (float(j.find("limit").get("lower")), float(j.find("limit").get("upper")))
+        for j in ET.fromstring((b / "mine.urdf").read_bytes()).iter("joint")
+        if j.get("type") == "revolute"
+    ]
+    mjcf_limits = [
+        tuple(map(float, j.get("range").split()))
+        for j in ET.fromstring((b / "mine.mjcf.xml").read_bytes()).iter("joint")
+        if j.get("type") == "hinge"
+    ]
+    workspace = json.loads((b / "workspace" / "workspace.json").read_text())
+    assert len(urdf_limits) == len(mjcf_limits) == 6
+    for limits_used in (urdf_limits, mjcf_limits, workspace["joint_limits_rad"]):
+        np.testing.assert_allclose(limits_used, allowed.T, rtol=0, atol=1e-9)
+    narrowed = [line for line in (b / "summary.txt").read_text().splitlines() if "narrowed" in line]
+    cut = np.any(np.abs(allowed.T - np.array(d.joint_limits)) > 1e-12, axis=1)
+    assert [line.split(":")[0].strip() for line in narrowed] == [
+        f"joint {k + 1}" for k in np.flatnonzero(cut)
+    ]
+    assert cut[1]
     assert (b / "controller" / "arm_config.h").exists()
     # nothing half-written is left behind; every file is printed but the folder's own records
     assert not list(b.rglob("*.tmp")) and not (b / INCOMPLETE).exists()

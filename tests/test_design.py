@@ -82,6 +82,32 @@ def test_with_limits_deg(design):
     np.testing.assert_allclose(np.degrees(d2.upper), [90, 100, 110, 120, 130, 140])
 
 
+pairs = st.tuples(half_limit, half_limit).map(lambda t: (-t[0], t[1]))
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    asked=st.lists(pairs, min_size=6, max_size=6), allowed=st.lists(pairs, min_size=6, max_size=6)
+)
+def test_limited_to_is_the_intersection(asked, allowed):
+    d = ArmDesign(joint_limits=asked)
+    cut = d.limited_to(allowed)
+    # checked point by point: a joint angle is allowed by the result iff by both inputs
+    for k in range(6):
+        for q in np.linspace(-math.pi, math.pi, 73):
+            inside = cut.lower[k] <= q <= cut.upper[k]
+            assert inside == (d.lower[k] <= q <= d.upper[k] and allowed[k][0] <= q <= allowed[k][1])
+    assert cut.replace(joint_limits=d.joint_limits) == d  # nothing else changes
+
+
+def test_limited_to_refuses_an_empty_intersection_naming_the_joint():
+    d = ArmDesign(joint_limits=[(-1, 1)] * 5 + [(0.5, 1.0)])
+    with pytest.raises(ValueError, match=r"joint_limits\[5\]: .* do not overlap"):
+        d.limited_to([(-1, 1)] * 5 + [(-1, 0.2)])
+    with pytest.raises(ValueError, match="expected 6"):
+        d.limited_to([(-1, 1)] * 5)
+
+
 def test_designs_are_hashable_values(design):
     assert hash(design) == hash(ArmDesign())
     assert {design, ArmDesign()} == {design}

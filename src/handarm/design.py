@@ -190,6 +190,28 @@ class ArmDesign:
             joint_limits=tuple((-math.radians(v), math.radians(v)) for v in limits_deg)
         )
 
+    def limited_to(self, limits: Sequence[Sequence[float]]) -> ArmDesign:
+        """Return a copy whose joint limits are the design's intersected with ``limits``.
+
+        ``limits`` holds 6 (lower, upper) pairs in radians, e.g. what the carved links allow
+        (``CarveResult.as_built``). Raises ValueError naming the joint when an
+        intersection is empty.
+        """
+        pairs = [tuple(map(float, pair)) for pair in limits]
+        if len(pairs) != _N_JOINTS or any(len(pair) != 2 for pair in pairs):
+            raise ValueError(f"limits: expected 6 (lower, upper) pairs, got {limits!r}")
+        joint_limits = []
+        for k, ((lo, hi), (a, b)) in enumerate(zip(self.joint_limits, pairs, strict=True)):
+            lo, hi = max(lo, a), min(hi, b)
+            if lo > hi:
+                raise ValueError(
+                    f"joint_limits[{k}]: [{math.degrees(self.joint_limits[k][0]):g}, "
+                    f"{math.degrees(self.joint_limits[k][1]):g}] deg and the allowed "
+                    f"[{math.degrees(a):g}, {math.degrees(b):g}] deg do not overlap"
+                )
+            joint_limits.append((lo, hi))
+        return self.replace(joint_limits=tuple(joint_limits))
+
     def to_dict(self) -> dict[str, Any]:
         """Plain dict of every field (lists instead of tuples), as written to TOML."""
         out: dict[str, Any] = {}

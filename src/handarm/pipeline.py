@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -229,6 +230,16 @@ def map_workspace(
         )
 
 
+def _limits_summary(design: ArmDesign, built: ArmDesign) -> str:
+    """Summary lines: the joint limits the build uses, marked where carving narrowed them."""
+    lines = ["", "joint limits as printed (deg; the URDF, MJCF, controller and map use these):"]
+    pairs = zip(built.joint_limits, design.joint_limits, strict=True)
+    for k, ((lo, hi), asked) in enumerate(pairs):
+        note = "" if (lo, hi) == asked else "  narrowed by the printed parts"
+        lines.append(f"  joint {k + 1}: {math.degrees(lo):8.2f} .. {math.degrees(hi):7.2f}{note}")
+    return "\n".join(lines) + "\n"
+
+
 def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path:
     """``tendons.json`` (every cable traced at several poses) and its lines in the summary."""
     import json
@@ -238,7 +249,7 @@ def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path
     report = tendon_report(design, carving, samples=6)
     path = out / "tendons.json"
     write_text_atomic(path, json.dumps(report, indent=2) + "\n")
-    write_text_atomic(summary, design_summary(design) + tendon_summary(report))
+    write_text_atomic(summary, summary.read_text() + tendon_summary(report))
     return path
 
 
@@ -329,13 +340,15 @@ def build(
             design, out, resolution_deg=resolution_deg, progress=progress, **limits
         )
         files += paths
-        files.append(_write_tendons(design, carving, out, summary))
-        files += _write_handle(design, carving, out, summary)
-        achieved = [j.achieved for j in carving.joints]
-        files += export_controller(design, out / "controller", achieved_limits=achieved)
-        files.append(_write_sizing(design, carving, out))
+        # from here on the arm as printed: requested limits narrowed to what the links allow
+        built = carving.as_built
+        write_text_atomic(summary, summary.read_text() + _limits_summary(design, built))
+        files.append(_write_tendons(built, carving, out, summary))
+        files += _write_handle(built, carving, out, summary)
+        files += export_controller(built, out / "controller")
+        files.append(_write_sizing(built, carving, out))
         files += map_workspace(
-            design,
+            built,
             out / "workspace",
             voxel=voxel,
             directions=directions,

@@ -164,8 +164,10 @@ def write_carve_outputs(
     written.append(path)
     tick("carve.json")
     written.append(
-        write_urdf(
-            design, out / f"{design.name}.urdf", link_extras=urdf_mesh_elements(result, props)
+        write_urdf(  # the limits the printed parts allow, as the MuJoCo model's
+            result.as_built,
+            out / f"{design.name}.urdf",
+            link_extras=urdf_mesh_elements(result, props),
         )
     )
     tick("urdf")

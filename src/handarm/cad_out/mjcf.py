@@ -143,7 +143,7 @@ def mjcf_string(
     str
         MJCF XML. Joint limits are the design's, narrowed to what carving achieved.
     """
-    design = result.design
+    design = result.as_built  # joint limits the printed parts allow
     a = design.lengths
     k_mat = coupling_matrix(design)
     ranges = motor_ranges(design)

@@ -79,17 +79,24 @@ class CarveResult:
     joints: tuple[JointReport, ...]
     resolution: float
 
+    @property
+    def as_built(self) -> ArmDesign:
+        """The design with its joint limits narrowed to what the carved links allow.
+
+        Equal to ``design`` when every requested range fits the printed parts (the default
+        arm); what the URDF, the MuJoCo model, the tendons, the handle, the sizing and the
+        workspace map of a build describe.
+        """
+        return self.design.limited_to([j.achieved for j in self.joints])
+
 
 def check_carvable(design: ArmDesign) -> None:
-    """Raise ValueError naming the field when the design cannot be carved."""
+    """Raise ValueError naming the field when the design cannot be carved.
+
+    Joint limits are requests: a range the links cannot survive (up to +-180 degrees) is
+    carved to the largest healthy range, and the joint reports say so.
+    """
     check_design(design)
-    for k, (lo, hi) in enumerate(design.joint_limits):
-        for side, v in (("lower", lo), ("upper", hi)):
-            if abs(v) >= math.pi - 1e-12:
-                raise ValueError(
-                    f"joint_limits[{k}]: {side} {math.degrees(v):g} deg; carving needs limits "
-                    "below 180 degrees (a link cannot fold onto its neighbour)"
-                )
     # hub and beam sizes against link lengths are checked when the design loads
 
 

@@ -88,12 +88,12 @@ def controller_config(
     """
     if not 0.0 < max_torque_fraction <= 1.0:
         raise ValueError(f"max_torque_fraction: expected 0 < f <= 1, got {max_torque_fraction}")
-    lower, upper = np.array(design.lower), np.array(design.upper)
     if achieved_limits is not None:
         ach = np.asarray(achieved_limits, dtype=float)
         if ach.shape != (6, 2):
             raise ValueError(f"achieved_limits: expected 6 (lo, hi) pairs, got shape {ach.shape}")
-        lower, upper = np.maximum(lower, ach[:, 0]), np.minimum(upper, ach[:, 1])
+        design = design.limited_to(ach)
+    lower, upper = np.array(design.lower), np.array(design.upper)
     offsets = None
     if calibration is not None:
         calibration.check_matches(design)

@@ -49,6 +49,7 @@ def write_workspace_outputs(
     report = {
         "design": design.name,
         "collision_model": wmap.collision_model,
+        "joint_limits_rad": [list(pair) for pair in design.joint_limits],
         "voxel_m": voxel,
         "directions": len(wmap.directions),
         "min_width_m": wmap.min_width,

@@ -57,12 +57,8 @@ def evaluate_design(
     mass = sum(p["mass_kg"] for p in props)
     strength = min(p["min_cross_section_m2"] for p in props)
     # map with what the printed links really allow, within what was asked
-    achieved = tuple(
-        (max(lo, j.achieved[0]), min(hi, j.achieved[1]))
-        for (lo, hi), j in zip(design.joint_limits, carved.joints, strict=True)
-    )
     wmap = reachability_map(
-        design.replace(joint_limits=achieved),
+        carved.as_built,
         settings["voxel"],
         settings["directions"],
         min_width=settings["min_width"],
