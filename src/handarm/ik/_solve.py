@@ -414,6 +414,59 @@ def configurations_along_u(p, e, dx, dy, us, elbow_b, elbow_e, a, out, ok):
         ok[i] = _configuration(fr, dx, dy, us[i], elbow_b, elbow_e, a, out[i])
 
 
+@nb.njit(**JIT)
+def _distance2(q, current):
+    d = 0.0
+    for j in range(6):
+        d += (q[j] - current[j]) ** 2
+    return d
+
+
+@nb.njit(**JIT)
+def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples, refine, out):
+    """Two candidates for the point of the range [lo, hi] nearest to ``current``.
+
+    The squared joint-space distance is sampled at ``samples`` points a hair inside the
+    ends; the best sample is refined by ``refine`` golden-section steps between its
+    neighbours. ``out[0]`` gets the best sample, ``out[1]`` the refined point; returns
+    their squared distances (inf where unreachable, both inf when no sample is reachable).
+    """
+    fr = np.empty(FRAMES_SIZE)
+    _frames(p, e, dx, dy, a, fr)
+    q = np.empty(6)
+    margin = min(1e-7, 0.25 * (hi - lo))
+    u0, u1 = lo + margin, hi - margin
+    step = (u1 - u0) / (samples - 1) if samples > 1 else 0.0
+    best, k = np.inf, -1
+    for i in range(samples):
+        if _configuration(fr, dx, dy, u0 + i * step, elbow_b, elbow_e, a, q):
+            d = _distance2(q, current)
+            if d < best:
+                best, k = d, i
+                out[0, :] = q
+    if k < 0:
+        return np.inf, np.inf
+    x0, x1 = u0 + max(k - 1, 0) * step, u0 + min(k + 1, samples - 1) * step
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
+    fc = _distance2(q, current) if _configuration(fr, dx, dy, c, elbow_b, elbow_e, a, q) else np.inf
+    fd = _distance2(q, current) if _configuration(fr, dx, dy, d, elbow_b, elbow_e, a, q) else np.inf
+    for _ in range(refine):
+        if fc <= fd:
+            x1, d, fd = d, c, fc
+            c = x1 - g * (x1 - x0)
+            ok = _configuration(fr, dx, dy, c, elbow_b, elbow_e, a, q)
+            fc = _distance2(q, current) if ok else np.inf
+        else:
+            x0, c, fc = c, d, fd
+            d = x0 + g * (x1 - x0)
+            ok = _configuration(fr, dx, dy, d, elbow_b, elbow_e, a, q)
+            fd = _distance2(q, current) if ok else np.inf
+    if not _configuration(fr, dx, dy, c, elbow_b, elbow_e, a, out[1]):
+        return best, np.inf
+    return best, _distance2(out[1], current)
+
+
 @nb.njit(parallel=True, **JIT)
 def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
     """Number of solution ranges of each target, without storing them (workspace maps)."""

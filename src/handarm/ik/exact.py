@@ -200,40 +200,17 @@ def follow_configuration(
     best = solutions[nearest_solution(solutions, current)]
     best_dist = float(np.sum((best - current) ** 2))
     a = design.lengths
-    q = np.empty(6)
+    current = np.ascontiguousarray(current, dtype=float)
+    candidates = np.empty((2, 6))
     for br, (lo, hi) in zip(branches, intervals, strict=True):
         dx, dy = _line_direction(p, e, br[0], azimuth)
-        margin = min(1e-7, 0.25 * (hi - lo))
-        us = np.linspace(lo + margin, hi - margin, _FOLLOW_SAMPLES)
-        qs = np.zeros((len(us), 6))
-        ok = np.zeros(len(us), np.bool_)
-        K.configurations_along_u(p, e, dx, dy, us, float(br[1]), float(br[2]), a, qs, ok)
-        dist = np.where(ok, np.sum((qs - current) ** 2, axis=1), np.inf)
-        k = int(np.argmin(dist))
-        if not math.isfinite(dist[k]):
-            continue
-
-        def f(u, br=br, dx=dx, dy=dy):
-            if not K.configuration_at_u(p, e, dx, dy, u, float(br[1]), float(br[2]), a, q):
-                return math.inf
-            return float(np.sum((q - current) ** 2))
-
-        x0, x1 = us[max(k - 1, 0)], us[min(k + 1, len(us) - 1)]
-        g = 0.5 * (math.sqrt(5.0) - 1.0)
-        c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
-        fc, fd = f(c), f(d)
-        for _ in range(_FOLLOW_REFINE):
-            if fc <= fd:
-                x1, d, fd = d, c, fc
-                c = x1 - g * (x1 - x0)
-                fc = f(c)
-            else:
-                x0, c, fc = c, d, fd
-                d = x0 + g * (x1 - x0)
-                fd = f(d)
-        for u in (us[k], c):
-            if f(u) < best_dist and is_valid(design, q):
-                best, best_dist = q.copy(), f(u)
+        dists = K.nearest_along_u(
+            p, e, dx, dy, lo, hi, float(br[1]), float(br[2]), a, current,
+            _FOLLOW_SAMPLES, _FOLLOW_REFINE, candidates,
+        )  # fmt: skip
+        for q, dist in zip(candidates, dists, strict=True):
+            if dist < best_dist and is_valid(design, q):
+                best, best_dist = q.copy(), dist
     return best
 
 
