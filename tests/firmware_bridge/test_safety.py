@@ -1,6 +1,10 @@
 """Every safety behaviour of the bridge, against the emulated MX-64T bus (issue 12)."""
 
+import io
 import json
+import socket
+import sys
+import time
 
 import numpy as np
 import pytest
@@ -238,6 +242,98 @@ def test_follow_loop_streams_valid_limited_steps(design, tmp_path):
     assert steps.max() <= v / 100.0 + 2 * 2 * np.pi / 4096
     p_end, _ = forward(design, poses[-1])
     assert np.linalg.norm(p_end - p) < 2e-3  # the tool reached the target
+
+
+def _target_line(design, q_deg) -> str:
+    from handarm.kinematics import forward
+
+    p, e = forward(design, np.radians(q_deg))
+    return json.dumps({"p": list(p), "e": list(e)})
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+GOAL_DEG = [20, 30, -20, 10, 10, 0]
+ELSEWHERE_DEG = [-40, 60, 30, -20, 40, 30]
+
+
+def test_udp_source_follows_the_newest_target(design):
+    """Targets sent to udp:PORT as datagrams (one holding two lines): the newest wins."""
+    from handarm.firmware_bridge.follow import follow, open_source, parse_target
+
+    port = _free_udp_port()
+    source = open_source(f"udp:{port}")
+    elsewhere, goal = _target_line(design, ELSEWHERE_DEG), _target_line(design, GOAL_DEG)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+        tx.sendto(elsewhere.encode(), ("127.0.0.1", port))
+        tx.sendto(f"{elsewhere}\n{goal}\n".encode(), ("127.0.0.1", port))
+        deadline = time.monotonic() + 10
+        while source.queue.qsize() < 3 and time.monotonic() < deadline:
+            time.sleep(0.01)
+    assert source.queue.qsize() == 3  # all arrived before the loop's first period
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        before = len(emu.log)
+        stats = follow(bus, design, cal, source, rate=100.0, max_periods=300)
+        poses = streamed_poses(emu, design, cal, before)
+    assert stats["targets"] == 1  # the two older lines were dropped unseen
+    assert handarm.is_valid(design, poses).all()
+    p, _ = parse_target(goal, "goal")
+    p_end, _ = handarm.forward(design, poses[-1])
+    assert np.linalg.norm(p_end - p) < 2e-3
+    with pytest.raises(OSError):
+        source.sock.recv(1)  # the loop closed the socket
+
+
+@pytest.mark.parametrize("spec", ["udp:x", "udp:0", "udp:70000", "udp:-5", "udp:"])
+def test_udp_source_refuses_a_bad_port_naming_the_source(spec):
+    from handarm.firmware_bridge.follow import open_source
+
+    with pytest.raises(ValueError, match=r"^source: expected udp:PORT"):
+        open_source(spec)
+
+
+def test_udp_source_refuses_a_port_in_use_in_one_line(design):
+    from handarm.firmware_bridge.follow import open_source
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("127.0.0.1", 0))
+        port = held.getsockname()[1]
+        with pytest.raises(ValueError, match=rf"^source: cannot listen on UDP port {port}: "):
+            open_source(f"udp:{port}")
+
+
+def test_cli_follow_from_stdin_ends_at_the_last_target(design, tmp_path, capsys, monkeypatch):
+    """``bridge follow --source -``: JSON lines on stdin; at their end the arm is on the last."""
+    lines = [_target_line(design, ELSEWHERE_DEG), "", _target_line(design, GOAL_DEG)]
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(lines) + "\n"))
+    with EmulatedBus(positions=START) as emu:
+        port = ["--port", emu.port, "--timeout", TIMEOUT]
+        cal = tmp_path / "cal.json"
+        assert main(["bridge", "calibrate", *map(str, port), "--out", str(cal)]) == 0
+        assert main(["bridge", "apply", *map(str, port), "--calibration", str(cal)]) == 0
+        capsys.readouterr()
+        before = len(emu.log)
+        args = ["bridge", "follow", *map(str, port), "--calibration", str(cal), "--source", "-"]
+        code = main(args)
+        out, err = capsys.readouterr()
+        calibration = B.Calibration.load(cal)
+        poses = streamed_poses(emu, design, calibration, before)
+        code_bad = main([*args[:-1], "udp:nope"])
+        _, err_bad = capsys.readouterr()
+    assert code == 0, err
+    assert out.startswith("followed ") and "Hz achieved" in out
+    assert handarm.is_valid(design, poses).all()
+    p_goal, _ = handarm.forward(design, np.radians(GOAL_DEG))
+    assert np.linalg.norm(handarm.forward(design, poses[-1])[0] - p_goal) < 2e-3
+    assert code_bad == 2 and err_bad.strip().splitlines() == [
+        "handarm bridge follow: error: source: expected udp:PORT with PORT in 1..65535, "
+        "got 'udp:nope'"
+    ]
 
 
 def test_cli_exit_statuses(design, tmp_path, capsys):

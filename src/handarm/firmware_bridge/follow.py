@@ -155,9 +155,15 @@ def open_source(spec: str) -> TargetSource:
         try:
             port = int(spec[4:])
         except ValueError:
-            raise ValueError(f"source: expected udp:PORT, got {spec!r}") from None
+            port = -1
+        if not 1 <= port <= 65535:
+            raise ValueError(f"source: expected udp:PORT with PORT in 1..65535, got {spec!r}")
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.bind(("127.0.0.1", port))
+        try:
+            sock.bind(("127.0.0.1", port))
+        except OSError as exc:
+            sock.close()
+            raise ValueError(f"source: cannot listen on UDP port {port}: {exc.strerror}") from None
         sock.settimeout(0.1)
         return TargetSource(sock=sock)
     path = Path(spec)
