@@ -206,11 +206,3 @@ def test_carve_command(tmp_path, capsys):
     assert code == 0, err
     assert "achieved" in out and "total link mass" in out
     assert (tmp_path / "c" / "carve.json").exists()
-
-
-def test_carve_command_refuses_a_180_degree_limit(tmp_path, capsys):
-    d = ArmDesign().with_limits_deg([135, 180, 135, 125, 150, 150])
-    d.to_toml(tmp_path / "d.toml")
-    code, _, err = run(capsys, "carve", str(tmp_path / "d.toml"), "--out", str(tmp_path / "c"))
-    assert code == 2 and "joint_limits[1]" in err and "below 180" in err
-    assert not (tmp_path / "c").exists()

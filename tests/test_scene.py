@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import fcl
 import numpy as np
 import pytest
@@ -380,6 +382,87 @@ def test_ik_command_with_a_scene(tmp_path):
     ):
         out = subprocess.run(base + args, capture_output=True, text=True)
         assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr
+
+
+def test_batch_and_count_in_a_scene_agree_with_solve(design):
+    """count_solutions and solve_batch with a scene, target by target against solve."""
+    rng = np.random.default_rng(12)
+    nonzero = 0
+    for k in range(8):
+        scene = random_scene(rng, int(rng.integers(1, 5)))
+        (P, E), _ = _scene_targets(design, rng, 20)
+        P = P + rng.normal(scale=0.01, size=P.shape)  # some out of reach, some blocked
+        E[0] = [0.0, 0.0, 1.0]  # a vertical direction: the azimuth search as well
+        c = 0.003 * (k % 2)
+        counts = ik.count_solutions(design, P, E, scene=scene, clearance=c)
+        batch = ik.solve_batch(design, P, E, scene=scene, clearance=c)
+        for i in range(len(P)):
+            r = ik.solve(design, P[i], E[i], scene=scene, clearance=c, degrade=False)
+            assert counts[i] == batch.counts[i] == r.count
+            # the batch normalises E once more: the same answer to a few ulps
+            np.testing.assert_allclose(batch.intervals[i, : r.count], r.intervals, atol=1e-12)
+            np.testing.assert_array_equal(batch.branches[i, : r.count], r.branches)
+            # representatives: the clearest sample of each range, where near-ties may go
+            # either way under a few ulps of E: as clear as solve's, and on the target
+            sols = batch.solutions[i, : r.count]
+            np.testing.assert_allclose(
+                scene_gaps(design, sols, scene).min(axis=-1),
+                scene_gaps(design, r.solutions, scene).min(axis=-1),
+                atol=1e-9,
+            )
+            reached = handarm.forward(design, sols)[0]
+            np.testing.assert_allclose(reached, np.broadcast_to(P[i], reached.shape), atol=1e-9)
+            nonzero += r.count > 0
+        wide = ik.count_solutions(design, P, E, scene=scene, clearance=c, min_width=0.02)
+        widths = [
+            int(np.sum(np.diff(batch.intervals[i, : batch.counts[i]], axis=1) >= 0.02))
+            for i in range(len(P))
+        ]
+        # row 0 left out: for a vertical direction the azimuth search itself looks for a
+        # range at least min_width wide, so it may settle on another azimuth
+        np.testing.assert_array_equal(wide[1:], widths[1:])
+    assert nonzero > 60
+
+
+def test_workspace_map_in_a_scene(design):
+    """Obstacles only take reach away, and a tool point deep inside a box is never reached."""
+    from handarm.workspace.maps import reachability_map
+
+    box_centre, box_size = np.array([0.12, 0.0, 0.06]), np.array([0.08, 0.08, 0.08])
+    scene = Scene.empty().with_box(box_size, box_centre)
+    free = reachability_map(design, 0.02, 12)
+    boxed = reachability_map(design, 0.02, 12, scene=scene, clearance=0.001)
+    assert boxed.mirrored == (False, False)
+    assert np.all(boxed.index <= free.index)
+    g = np.stack(np.meshgrid(*[boxed.centres] * 3, indexing="ij"), axis=-1)
+    deep = np.all(np.abs(g - box_centre) < box_size / 2 - 0.005, axis=-1)
+    assert deep.sum() >= 8 and free.index[deep].max() > 0
+    assert boxed.index[deep].max() == 0
+    assert boxed.reachable.sum() < free.reachable.sum()
+
+
+def test_workspace_command_with_a_scene(tmp_path, capsys):
+    from handarm.cli import main
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[[box]]\nsize = [0.06, 0.06, 0.06]\nposition = [0.12, 0.0, 0.06]\n")
+    out = tmp_path / "w"
+    argv = ["workspace", "--voxel", "0.06", "--directions", "12", "--quiet", "--out", str(out)]
+    assert main([*argv, "--scene", str(scene), "--clearance", "2"]) == 0
+    assert "in a scene of 1 obstacles, 2 mm kept from them" in capsys.readouterr().out
+    report = json.loads((out / "workspace.json").read_text())
+    assert report["scene"] == {"obstacles": ["box 1"], "clearance_m": 0.002}
+    assert "sensitivity" not in report
+    world = tmp_path / "world.toml"
+    world.write_text('frame = "world"\n' + scene.read_text())
+    for args, message in (
+        (["--clearance", "2"], "--clearance: only with --scene"),
+        (["--scene", str(world)], "--scene: " + str(world) + ": frame 'world'"),
+    ):
+        assert main([*argv[:-2], "--out", str(tmp_path / "x"), *args]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "x").exists()
 
 
 def test_meshed_obstacles_bracket_the_true_shapes():

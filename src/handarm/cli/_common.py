@@ -105,6 +105,40 @@ def add_map_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """--scene and --clearance: obstacles the printed links keep clear of (ik, workspace)."""
+    p.add_argument(
+        "--scene", metavar="SCENE.toml", help="obstacles (handle frame) the links keep clear of"
+    )
+    p.add_argument(
+        "--clearance", type=float, metavar="MM", help="distance kept from the obstacles, mm"
+    )
+
+
+def load_scene(args: argparse.Namespace):
+    """(Scene or None, clearance in m) from --scene and --clearance, checked before any work."""
+    if args.scene is None:
+        if args.clearance is not None:
+            raise UsageError("--clearance: only with --scene")
+        return None, 0.0
+    from handarm.scene import Scene
+
+    try:
+        scene = Scene.from_toml(args.scene)
+    except ValueError as exc:
+        raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
+    if scene.frame != "handle":
+        raise UsageError(
+            f"--scene: {args.scene}: frame {scene.frame!r}; the command line takes scenes in "
+            "the handle frame (use Scene.in_handle_frame from Python)"
+        )
+    if args.clearance is None:
+        return scene, 0.0
+    if not 0.0 <= args.clearance <= 1000.0:
+        raise UsageError(f"--clearance: expected 0 to 1000 mm, got {args.clearance:g}")
+    return scene, args.clearance * 1e-3
+
+
 def limits(args: argparse.Namespace) -> dict:
     """The library's ``max_memory`` / ``max_seconds`` arguments from the options."""
     return {"max_memory": args.max_memory * 2**30, "max_seconds": args.max_minutes * 60}

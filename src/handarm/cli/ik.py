@@ -7,7 +7,13 @@ import json
 
 import numpy as np
 
-from handarm.cli._common import UsageError, load_design, number, option_error
+from handarm.cli._common import (
+    add_scene_options,
+    load_design,
+    load_scene,
+    number,
+    option_error,
+)
 
 _OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current", "clearance": "--clearance"}
 
@@ -18,18 +24,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
     design = load_design(args.design)
     current = None if args.current is None else np.radians(args.current)
-    scene = None
-    if args.scene is not None:
-        from handarm.scene import Scene
-
-        try:
-            scene = Scene.from_toml(args.scene)
-        except ValueError as exc:
-            raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
-    elif args.clearance is not None:
-        raise UsageError("--clearance: only with --scene")
-    if args.clearance is not None and not 0.0 <= args.clearance <= 1000.0:
-        raise UsageError(f"--clearance: expected 0 to 1000 mm, got {args.clearance:g}")
+    scene, clearance = load_scene(args)
     try:
         result = ik.solve(
             design,
@@ -38,7 +33,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
             current=current,
             degrade=not args.exact,
             scene=scene,
-            clearance=0.0 if args.clearance is None else args.clearance * 1e-3,
+            clearance=clearance,
         )
     except ValueError as exc:
         raise option_error(exc, _OPTIONS) from None
@@ -84,11 +79,6 @@ def register(sub) -> None:
         help="present joint angles, degrees",
     )
     p.add_argument("--exact", action="store_true", help="no graceful degradation")
-    p.add_argument(
-        "--scene", metavar="SCENE.toml", help="obstacles (handle frame) the links keep clear of"
-    )
-    p.add_argument(
-        "--clearance", type=float, metavar="MM", help="distance kept from the obstacles, mm"
-    )
+    add_scene_options(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=cmd_ik)

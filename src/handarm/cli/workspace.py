@@ -11,8 +11,10 @@ from handarm.cli._common import (
     add_limits,
     add_map_options,
     add_quiet,
+    add_scene_options,
     limits,
     load_design,
+    load_scene,
     number,
     option_error,
 )
@@ -25,6 +27,7 @@ def cmd_workspace(args: argparse.Namespace) -> int:
     from handarm.pipeline import map_workspace
 
     design = load_design(args.design)
+    scene, clearance = load_scene(args)
     try:
         paths = map_workspace(
             design,
@@ -34,6 +37,8 @@ def cmd_workspace(args: argparse.Namespace) -> int:
             threshold=args.threshold,
             sensitivity=not args.no_sensitivity,
             progress=not args.quiet,
+            scene=scene,
+            clearance=clearance,
             **limits(args),
         )
     except ValueError as exc:
@@ -46,6 +51,11 @@ def cmd_workspace(args: argparse.Namespace) -> int:
         f"mean index {sc['mean_index']:.3f}"
     )
     print(f"{report['ik_queries']} IK queries at {report['ik_queries_per_second']:,.0f}/s")
+    if "scene" in report:
+        print(
+            f"in a scene of {len(report['scene']['obstacles'])} obstacles, "
+            f"{report['scene']['clearance_m'] * 1e3:g} mm kept from them"
+        )
     if "sensitivity" in report:
         print(
             "joints by Morris mu* (reachable, dexterous): "
@@ -115,7 +125,12 @@ def register(sub) -> None:
         help="reachability index counted as dexterous, (0, 1] (0.5)",
     )
     add_limits(p)
-    p.add_argument("--no-sensitivity", action="store_true", help="skip per-joint sensitivity")
+    p.add_argument(
+        "--no-sensitivity",
+        action="store_true",
+        help="skip per-joint sensitivity (never made with --scene)",
+    )
+    add_scene_options(p)
     add_quiet(p)
     p.set_defaults(func=cmd_workspace)
 

@@ -9,12 +9,14 @@ stretch, a gap below ``-grow`` proves it blocked, and otherwise the stretch is h
 
 from __future__ import annotations
 
+import math
+
 import numba as nb
 import numpy as np
 
-from handarm._collide import N_FRAMES
-from handarm._scene import gap, piece_capsule
-from handarm.ik._common import JIT
+from handarm._collide import N_FRAMES, place_frames
+from handarm._scene import gap, gaps_at, piece_capsule
+from handarm.ik._common import JIT, VERTICAL_EPS
 from handarm.ik._printed import (
     _MAX_BREAKS,
     _STACK,
@@ -25,6 +27,8 @@ from handarm.ik._printed import (
     stretch_motion,
     stretch_setup,
 )
+from handarm.ik._printed import configuration as _configuration
+from handarm.ik._solve import FRAMES_SIZE, _frames, _solve_any_azimuth, _workspace
 
 
 @nb.njit(**JIT)
@@ -126,3 +130,79 @@ def clear_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, pi, pf, coef, n_pieces
         st_mask[top, :] = child
         top += 2
     return n_out
+
+
+_SCENE_CAP = 64  # free ranges of one target held for the scene; more falls back to Python
+SPLIT_CAP = 64  # clear stretches of one range (as ``solve_in_scene``)
+SAMPLES = 65  # points inside each clear stretch (``solve_in_scene`` keeps one if any is clear)
+
+
+@nb.njit(**JIT)
+def _count_target(p, e, psi, a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_width, bufs):
+    """Clear stretches of one target's solution ranges, as ``solve_in_scene`` counts them.
+
+    A stretch counts when it is at least ``min_width`` wide and one of its ``SAMPLES``
+    interior points keeps ``c`` from every obstacle (checked with ``gaps_at`` on the
+    placed configuration, exactly as ``scene_gaps`` does). Returns -1 on a full buffer.
+    """
+    q, br, iv, used, fr, sub, sc, qs, frames, gaps = bufs
+    n = _solve_any_azimuth(p, e, psi, a, q, br, iv, used, work, mdl)
+    if n < 0 or n > q.shape[0]:
+        return -1
+    h = math.hypot(e[0], e[1])
+    count = 0
+    for k in range(n):
+        sign = float(br[k, 0])
+        if h >= VERTICAL_EPS:
+            dx, dy = sign * e[0] / h, sign * e[1] / h
+        else:
+            dx, dy = sign * math.cos(used[0]), sign * math.sin(used[0])
+        elbow_b, elbow_e = float(br[k, 1]), float(br[k, 2])
+        _frames(p, e, dx, dy, a, fr)
+        m = clear_ranges(
+            fr, dx, dy, iv[k, 0], iv[k, 1], elbow_b, elbow_e, a,
+            pi, pf, coef, n_pieces, obs, c, sc, sub,
+        )  # fmt: skip
+        if m < 0:
+            return -1
+        for j in range(m):
+            lo, hi = sub[j, 0], sub[j, 1]
+            if hi - lo < min_width:
+                continue
+            for i in range(SAMPLES):
+                u = lo + (hi - lo) * (i + 0.5) / SAMPLES
+                if not _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, qs):
+                    continue
+                place_frames(qs, a, 0.0, frames)
+                gaps_at(frames, pi, pf, n_pieces, obs, c, gaps)
+                if np.min(gaps) + c >= c:
+                    count += 1
+                    break
+    return count
+
+
+@nb.njit(parallel=True, **JIT)
+def count_many_in_scene(P, E, psi, a, lower, upper, counts, mdl, pi, pf, coef, n_pieces, obs, c):
+    """``count_many`` with a scene: clear stretches of every target's ranges, in parallel."""
+    n = P.shape[0]
+    block = 64
+    n_blocks = (n + block - 1) // block
+    min_width = mdl[-1]
+    for b in nb.prange(n_blocks):
+        work = _workspace(lower, upper, mdl[1].shape[0])
+        bufs = (
+            np.empty((_SCENE_CAP, 6)),
+            np.empty((_SCENE_CAP, 3), np.int8),
+            np.empty((_SCENE_CAP, 2)),
+            np.empty(1),
+            np.empty(FRAMES_SIZE),
+            np.empty((SPLIT_CAP, 2)),
+            obstacle_scratch(n_pieces * obs.shape[0]),
+            np.empty(6),
+            np.zeros((N_FRAMES, 4)),
+            np.empty(obs.shape[0]),
+        )
+        for i in range(b * block, min(n, (b + 1) * block)):
+            counts[i] = _count_target(
+                P[i], E[i], psi[i], a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_width, bufs
+            )

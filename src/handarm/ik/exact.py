@@ -258,7 +258,15 @@ def _check_chunk(chunk) -> None:
         raise ValueError(f"chunk: expected an integer >= 1, got {chunk!r}")
 
 
-def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchResult:
+def solve_batch(
+    design: ArmDesign,
+    P,
+    E,
+    *,
+    chunk: int = _BATCH_CHUNK,
+    scene=None,
+    clearance: float = 0.0,
+) -> BatchResult:
     """5-DoF solutions of N targets, in parallel, in chunks of bounded memory.
 
     Parameters
@@ -268,6 +276,11 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
         Tool points (m) and directions (normalised here).
     chunk : int
         Targets per parallel call; memory use is O(N) for the outputs only.
+    scene : handarm.scene.Scene, optional
+        Obstacles (handle frame): each row then holds what ``solve(..., scene=scene,
+        clearance=clearance)`` returns (``handarm.ik.obstacles.solve_batch_in_scene``).
+    clearance : float
+        Distance (m) kept from the scene's obstacles.
 
     Returns
     -------
@@ -283,6 +296,10 @@ def solve_batch(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK) -> BatchR
         If the targets are malformed or ``chunk`` is not an integer >= 1.
     """
     _check_chunk(chunk)
+    if scene is not None:
+        from handarm.ik.obstacles import solve_batch_in_scene
+
+        return solve_batch_in_scene(design, P, E, scene, clearance)
     P, E, psi = _check_batch(design, P, E)
     counts, sols, br, iv, used = _batch_rows(design, P, E, psi, chunk, MAX_SOLUTIONS)
     over = np.flatnonzero(counts > MAX_SOLUTIONS)
@@ -355,7 +372,14 @@ def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
 
 
 def count_solutions(
-    design: ArmDesign, P, E, *, chunk: int = 1 << 20, min_width: float = 0.0
+    design: ArmDesign,
+    P,
+    E,
+    *,
+    chunk: int = 1 << 20,
+    min_width: float = 0.0,
+    scene=None,
+    clearance: float = 0.0,
 ) -> np.ndarray:
     """Number of 5-DoF solution ranges of each of N targets, shape (N,).
 
@@ -372,6 +396,11 @@ def count_solutions(
     min_width : float
         Ranges narrower than this (m of u) are not counted: a printed arm cannot hold a
         range a few nanometres wide (a stretched tip pointing straight up, say).
+    scene : handarm.scene.Scene, optional
+        Obstacles (handle frame): count the ranges that keep ``clearance`` (m) from them,
+        as ``solve(..., scene=scene, clearance=clearance)`` returns them
+        (``handarm.ik.obstacles.count_in_scene``, in parallel).
+    clearance : float
 
     Returns
     -------
@@ -386,6 +415,17 @@ def count_solutions(
     _check_chunk(chunk)
     if not (math.isfinite(min_width) and min_width >= 0.0):
         raise ValueError(f"min_width: expected a finite number >= 0 (m), got {min_width!r}")
+    if scene is not None:
+        from handarm.ik.obstacles import count_in_scene
+
+        P, E, _ = _check_batch(design, P, E)
+        parts = [
+            count_in_scene(
+                design, P[s : s + chunk], E[s : s + chunk], scene, clearance, min_width=min_width
+            )
+            for s in range(0, len(P), chunk)
+        ]
+        return np.concatenate([np.zeros(0, np.int64), *parts])
     P, E, psi = _check_batch(design, P, E)
     model = _model(design, min_width)
     n = len(P)

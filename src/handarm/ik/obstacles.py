@@ -21,15 +21,25 @@ import numpy as np
 
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
-from handarm.ik._obstacles import clear_ranges, obstacle_scratch
-from handarm.ik.exact import _exact, _line_direction, check_inputs, follow_configuration
-from handarm.ik.results import IKResult
+from handarm.ik._obstacles import (
+    SAMPLES,
+    SPLIT_CAP,
+    clear_ranges,
+    count_many_in_scene,
+    obstacle_scratch,
+)
+from handarm.ik.exact import (
+    _check_batch,
+    _exact,
+    _line_direction,
+    _model,
+    check_inputs,
+    follow_configuration,
+)
+from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult
 from handarm.scene import Scene, _check_scene, _kernel_args, scene_gaps
 
-__all__ = ["solve_in_scene"]
-
-_SAMPLES = 65
-_MAX_SPLIT = 64
+__all__ = ["count_in_scene", "solve_batch_in_scene", "solve_in_scene"]
 
 
 def _check_clearance(clearance) -> float:
@@ -84,7 +94,7 @@ def solve_in_scene(
     a = design.lengths
     sc = obstacle_scratch(n_pieces * len(obs))
     fr = np.empty(K.FRAMES_SIZE)
-    sub = np.empty((_MAX_SPLIT, 2))
+    sub = np.empty((SPLIT_CAP, 2))
     q = np.empty(6)
     sols, brs, ivs, cls, best_u = [], [], [], [], []
     blocked = np.zeros(len(obs), bool)
@@ -113,13 +123,13 @@ def solve_in_scene(
             raise RuntimeError("solve_in_scene: a range split into more pieces than supported")
         for r_lo, r_hi in sub[:n]:
             # inside the range: its ends are exact to 5e-10 m, not on the valid side
-            us = r_lo + (r_hi - r_lo) * (np.arange(_SAMPLES) + 0.5) / _SAMPLES
-            qs = np.empty((_SAMPLES, 6))
-            ok = np.empty(_SAMPLES, np.bool_)
+            us = r_lo + (r_hi - r_lo) * (np.arange(SAMPLES) + 0.5) / SAMPLES
+            qs = np.empty((SAMPLES, 6))
+            ok = np.empty(SAMPLES, np.bool_)
             K.configurations_along_u(p, e, dx, dy, us, float(br[1]), float(br[2]), a, qs, ok)
             if not ok.any():
                 continue
-            gaps = np.full(_SAMPLES, -np.inf)
+            gaps = np.full(SAMPLES, -np.inf)
             gaps[ok] = scene_gaps(design, qs[ok], scene, c).min(axis=-1) + c
             good = ok & (gaps >= c)  # inside an exact range: valid
             if not good.any():
@@ -156,3 +166,59 @@ def solve_in_scene(
         sols, brs, ivs, 5, 0.0, 0.0, free.vertical, free.azimuth, p.copy(), e.copy(), follow,
         clearances=cls, clearest=best_u,
     )  # fmt: skip
+
+
+def count_in_scene(
+    design: ArmDesign, P, E, scene: Scene, clearance: float = 0.0, *, min_width: float = 0.0
+) -> np.ndarray:
+    """Number of solution ranges of each of N targets that keep ``clearance`` from the scene.
+
+    The count ``solve_in_scene`` returns for each target (without ``current``), computed in
+    parallel without storing any range, so that workspace maps can be made in a scene.
+    Ranges narrower than ``min_width`` (m of u) are not counted. Shape (N,), int.
+    """
+    scene = _check_scene(scene)
+    c = _check_clearance(clearance)
+    P, E, psi = _check_batch(design, P, E)
+    counts = np.zeros(len(P), np.int64)
+    if len(P) == 0:
+        return counts
+    pi, pf, n_pieces, coef = _kernel_args(design)
+    count_many_in_scene(
+        np.ascontiguousarray(P), np.ascontiguousarray(E), psi, design.lengths,
+        design.lower, design.upper, counts, _model(design, min_width),
+        pi, pf, coef, n_pieces, scene.obstacles, c,
+    )  # fmt: skip
+    for i in np.flatnonzero(counts < 0):  # more ranges than the kernel's buffers hold
+        r = solve_in_scene(design, P[i], E[i], scene, c)
+        counts[i] = int(np.sum(r.intervals[:, 1] - r.intervals[:, 0] >= min_width))
+    return counts
+
+
+def solve_batch_in_scene(
+    design: ArmDesign, P, E, scene: Scene, clearance: float = 0.0
+) -> BatchResult:
+    """``solve_batch`` in a scene: each row holds what ``solve_in_scene`` returns.
+
+    Targets are counted in parallel first (``count_in_scene``); only those with a clear
+    range are then solved one by one, so a batch mostly blocked or out of reach costs
+    little. Representatives are each range's clearest sampled configuration.
+    """
+    from handarm.ik.exact import solve_batch
+
+    counts = count_in_scene(design, P, E, scene, clearance)
+    free = solve_batch(design, P, E)
+    P, E, _ = _check_batch(design, P, E)
+    width = max(MAX_SOLUTIONS, int(counts.max(initial=0)))
+    sols = np.full((len(P), width, 6), np.nan)
+    br = np.zeros((len(P), width, 3), np.int8)
+    iv = np.full((len(P), width, 2), np.nan)
+    for i in np.flatnonzero(counts):
+        r = solve_in_scene(design, P[i], E[i], scene, clearance)
+        counts[i] = r.count
+        sols[i, : r.count], br[i, : r.count], iv[i, : r.count] = (
+            r.solutions,
+            r.branches,
+            r.intervals,
+        )
+    return BatchResult(counts, sols, br, iv, free.truncated, free.vertical, free.azimuth)

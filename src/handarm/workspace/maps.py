@@ -231,6 +231,8 @@ def reachability_map(
     min_width: float = MIN_WIDTH,
     offset=(0.0, 0.0, 0.0),
     rotation=None,
+    scene=None,
+    clearance: float = 0.0,
 ) -> ReachabilityMap:
     """Reachability map of the design.
 
@@ -256,6 +258,11 @@ def reachability_map(
         map is computed in full.
     rotation : array-like, shape (3, 3), optional
         Rotation applied to the direction set, for rotated repeats.
+    scene : handarm.scene.Scene, optional
+        Obstacles (handle frame): a target counts as reached by the ranges that keep
+        ``clearance`` (m) from them (``count_solutions(..., scene=)``). A scene is in general
+        not mirror-symmetric, so the map is then computed in full.
+    clearance : float
 
     Raises
     ------
@@ -283,7 +290,7 @@ def reachability_map(
     sym_y, sym_z = symmetries(design) if use_symmetry else (False, False)
     sym_y = sym_y and _mirror_symmetric(dirs, 1)
     sym_z = sym_z and _mirror_symmetric(dirs, 2)
-    if off.any():
+    if off.any() or (scene is not None and len(scene)):
         sym_y = sym_z = False
     gx, gy, gz = np.meshgrid(centres + off[0], centres + off[1], centres + off[2], indexing="ij")
     inside = gx**2 + gy**2 + gz**2 <= (reach + voxel * math.sqrt(3) / 2) ** 2
@@ -303,9 +310,9 @@ def reachability_map(
         block = pts[s : s + per_chunk]
         P = np.repeat(block, m, axis=0)
         E = np.tile(dirs, (len(block), 1))
-        counts[s : s + len(block)] = count_solutions(design, P, E, min_width=min_width).reshape(
-            len(block), m
-        )
+        counts[s : s + len(block)] = count_solutions(
+            design, P, E, min_width=min_width, scene=scene, clearance=clearance
+        ).reshape(len(block), m)
         if progress is not None:
             progress(min(total, (s + len(block)) * m), total)
     seconds = time.perf_counter() - t0

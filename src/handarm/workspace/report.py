@@ -35,6 +35,8 @@ def write_workspace_outputs(
     sensitivity_directions: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     sensitivity_progress: Callable[[int, int], None] | None = None,
+    scene=None,
+    clearance: float = 0.0,
 ) -> list[Path]:
     """Map, scores and pictures of ``design`` into ``out``; returns the paths written.
 
@@ -42,9 +44,16 @@ def write_workspace_outputs(
     and 36 directions (``sensitivity_voxel``, ``sensitivity_directions`` override), the
     settings it used recorded beside it in ``workspace.json``. ``progress(done, total)``
     counts the map's queries, ``sensitivity_progress(done, total)`` the screen's maps.
+    With a ``scene`` (obstacles the links keep ``clearance`` from) the map counts only the
+    ranges clear of it, ``workspace.json`` records the scene, and the sensitivity screen
+    (a question about the arm, not about its surroundings) is not made.
     """
     out = Path(out)
-    wmap = reachability_map(design, voxel, directions, progress=progress)
+    in_scene = scene is not None and len(scene) > 0
+    sensitivity = sensitivity and not in_scene
+    wmap = reachability_map(
+        design, voxel, directions, progress=progress, scene=scene, clearance=clearance
+    )
     written = [wmap.save_npz(out / "workspace.npz")]
     report = {
         "design": design.name,
@@ -59,6 +68,11 @@ def write_workspace_outputs(
         "scores": map_scores(wmap, threshold),
         "min_reach_check": min_reach_check(design),
     }
+    if in_scene:
+        report["scene"] = {
+            "obstacles": list(scene.names),
+            "clearance_m": clearance,
+        }
     if sensitivity:
         s_voxel = max(voxel, 0.03) if sensitivity_voxel is None else sensitivity_voxel
         s_dirs = min(directions, 36) if sensitivity_directions is None else sensitivity_directions
