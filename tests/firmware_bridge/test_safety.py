@@ -180,6 +180,86 @@ def test_goto_plans_around_a_collision_and_streams_valid_poses(design, rng):
         assert writes(emu, before) == []
 
 
+def _dense(poses, step_deg=0.02):
+    """Straight joint-space lines between consecutive poses, sampled every ``step_deg``."""
+    return np.concatenate(
+        [
+            qa
+            + np.linspace(0, 1, int(np.abs(qb - qa).max() / np.radians(step_deg)) + 2)[:, None]
+            * (qb - qa)
+            for qa, qb in zip(poses[:-1], poses[1:], strict=True)
+        ]
+    )
+
+
+def test_goto_in_a_scene_goes_around_the_obstacle(design):
+    """A sphere on the straight path's tool track: the move goes around it, keeping c."""
+    from handarm.scene import Scene, scene_gaps
+
+    a = np.radians([0, 40, -30, 20, 10, 0])
+    b = np.radians([60, 40, -30, 20, 10, 0])
+    mid, _ = handarm.forward(design, (a + b) / 2)
+    scene = Scene.empty().with_sphere(mid, 0.015, name="ball")
+    c = 0.003
+    assert scene_gaps(design, _dense(np.stack([a, b])), scene).min() < 0  # the line hits it
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        B.goto(bus, design, cal, a, rate=200.0)
+        before = len(emu.log)
+        B.goto(bus, design, cal, b, rate=200.0, scene=scene, clearance=c)
+        poses = streamed_poses(emu, design, cal, before)
+        # every pose and the lines between them keep the clearance (dense, independent)
+        dense = _dense(poses)
+        assert handarm.is_valid(design, dense).all()
+        assert scene_gaps(design, dense, scene, c).min() >= 0
+        tick = 2 * np.pi / 4096
+        np.testing.assert_allclose(
+            motor_from_joint(design, poses[-1]), motor_from_joint(design, b), atol=tick
+        )
+        # a goal inside the obstacle's clearance: refused naming it, nothing sent
+        before = len(emu.log)
+        q_in = np.radians([30, 40, -30, 20, 10, 0])
+        with pytest.raises(B.PlanningError, match=r"goal: .* of ball; nothing was sent"):
+            B.goto(bus, design, cal, q_in, rate=200.0, scene=scene, clearance=c)
+        assert writes(emu, before) == []
+
+
+def test_follow_in_a_scene_keeps_clear_and_holds_before_a_blocked_target(design):
+    from handarm.firmware_bridge.follow import TargetSource, follow
+    from handarm.scene import Scene, scene_gaps
+
+    a = np.radians([0, 40, -30, 20, 10, 0])
+    goal = np.radians([60, 40, -30, 20, 10, 0])
+    mid, _ = handarm.forward(design, np.radians([30, 40, -30, 20, 10, 0]))
+    scene = Scene.empty().with_sphere(mid, 0.015, name="ball")
+    c = 0.003
+    p_goal, e_goal = handarm.forward(design, goal)
+    lines = [json.dumps({"p": list(p_goal), "e": list(e_goal)})] * 3
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        B.goto(bus, design, cal, a, rate=200.0)
+        before = len(emu.log)
+        follow(
+            bus, design, cal, TargetSource(lines, paced=True), rate=100.0, max_periods=300,
+            scene=scene, clearance=c,
+        )  # fmt: skip
+        poses = streamed_poses(emu, design, cal, before)
+        assert len(poses) > 3
+        dense = _dense(poses)
+        assert handarm.is_valid(design, dense).all()
+        assert scene_gaps(design, dense, scene, c).min() >= 0
+        # a target whose every solution meets the ball: the arm holds where it is
+        inside = [json.dumps({"p": list(mid), "e": [1.0, 0.0, 0.0]})] * 20
+        before = len(emu.log)
+        q_before = poses[-1]
+        follow(
+            bus, design, cal, TargetSource(inside, paced=True), rate=100.0, max_periods=30,
+            scene=scene, clearance=c,
+        )  # fmt: skip
+        held = streamed_poses(emu, design, cal, before)
+        assert np.abs(held - q_before).max(initial=0.0) < 2 * 2 * np.pi / 4096
+
+
 def test_overheating_stops_the_move_and_holds(design):
     with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
         cal = ready(emu, bus, design)
@@ -364,6 +444,18 @@ def test_cli_exit_statuses(design, tmp_path, capsys):
         "bridge", "goto", "170", "0", "0", "0", "0", "0", "--port", "x", "--calibration", cal
     )
     assert code == 2 and "q1" in err
+    # a goal within a scene obstacle's clearance: refused naming it, before the port opens
+    scene = tmp_path / "scene.toml"
+    mid, _ = handarm.forward(design, np.radians([30, 40, -30, 20, 10, 0]))
+    scene.write_text(
+        f"[[sphere]]\nname = 'ball'\nradius = 0.015\nposition = {[float(v) for v in mid]}\n"
+    )
+    goal = ("30", "40", "-30", "20", "10", "0")
+    args = ("--port", "x", "--calibration", cal, "--scene", scene, "--clearance", "3")
+    code, (out, err) = run("bridge", "goto", *goal, *args)
+    assert code == 3 and "of ball; nothing was sent" in err and len(err.splitlines()) == 1, err
+    code, (out, err) = run("bridge", "follow", *args[:4], "--clearance", "3")
+    assert code == 2 and "--clearance: only with --scene" in err
 
 
 def test_ctrl_c_during_follow_holds_the_pose(design):

@@ -9,7 +9,15 @@ import os
 
 import numpy as np
 
-from handarm.cli._common import UsageError, add_design_arg, load_design, number, option_error
+from handarm.cli._common import (
+    UsageError,
+    add_design_arg,
+    add_scene_options,
+    load_design,
+    load_scene,
+    number,
+    option_error,
+)
 
 _BUS_OPTIONS = {"port": "--port", "baud": "--baud", "calibration": "--calibration"}
 
@@ -155,11 +163,19 @@ def _limits(args, design):
 def cmd_goto(args: argparse.Namespace) -> int:
     """Move to joint targets (degrees) along a collision-free timed path."""
     from handarm.firmware_bridge.bus import goal_ticks, goto
+    from handarm.firmware_bridge.motion import PlanningError, scene_blockers
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
+    scene, clearance = load_scene(args)
     q = np.radians(args.q)
     goal_ticks(design, calibration, q)  # refuse before opening the port
+    blockers = scene_blockers(design, q, scene, clearance)
+    if blockers:
+        raise PlanningError(
+            f"goal: the pose comes within {args.clearance or 0:g} mm of {', '.join(blockers)}; "
+            "nothing was sent"
+        )
     limits = _limits(args, design)
     if not args.rate > 0:
         raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
@@ -172,6 +188,8 @@ def cmd_goto(args: argparse.Namespace) -> int:
             rate=args.rate,
             limits=limits,
             max_torque_fraction=args.max_torque,
+            scene=scene,
+            clearance=clearance,
         )
     print(
         f"moved in {len(samples) - 1} steps of {1000 / args.rate:g} ms to "
@@ -266,6 +284,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
     design = load_design(args.design)
     calibration = _calibration(args, design)
     limits = _limits(args, design)
+    scene, clearance = load_scene(args)
     if not args.rate > 0:
         raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
     source = open_source(args.source)
@@ -278,6 +297,8 @@ def cmd_follow(args: argparse.Namespace) -> int:
             rate=args.rate,
             limits=limits,
             max_torque_fraction=args.max_torque,
+            scene=scene,
+            clearance=clearance,
         )
     print(
         f"followed {stats['targets']} targets in {stats['periods']} periods "
@@ -414,6 +435,7 @@ def register(sub) -> None:
                 help="Max Torque as a fraction of 1023, as given to apply (default 1)",
             )
         if name in ("goto", "follow"):
+            add_scene_options(p)
             p.add_argument("--rate", type=float, default=50.0, help="control rate, Hz")
             p.add_argument(
                 "--speed",

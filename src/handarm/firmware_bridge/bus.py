@@ -557,11 +557,14 @@ def plan_move(
     limits: MotionLimits | None = None,
     timeout: float = 5.0,
     seed: int | None = 0,
+    scene=None,
+    clearance: float = 0.0,
 ) -> np.ndarray:
     """Timed joint samples from ``start`` to ``goal`` at ``rate`` Hz, shape (n, 6) rad.
 
-    Plans a collision-free path (``motion.plan_path``), times it (``motion.time_path``) and
-    checks every sample's Goal Position ticks (``goal_ticks``).
+    Plans a collision-free path (``motion.plan_path``; with a ``scene`` it keeps
+    ``clearance`` from the obstacles too), times it (``motion.time_path``) and checks every
+    sample's Goal Position ticks (``goal_ticks``).
 
     Raises
     ------
@@ -572,7 +575,9 @@ def plan_move(
     """
     goal_ticks(design, calibration, goal)
     limits = MotionLimits(design) if limits is None else limits
-    path = plan_path(design, start, goal, timeout=timeout, seed=seed)
+    path = plan_path(
+        design, start, goal, timeout=timeout, seed=seed, scene=scene, clearance=clearance
+    )
     samples = time_path(design, path, limits, rate)
     for q in samples:
         goal_ticks(design, calibration, q)
@@ -721,8 +726,13 @@ def goto(
     max_torque_fraction: float = 1.0,
     timeout: float = 5.0,
     seed: int | None = 0,
+    scene=None,
+    clearance: float = 0.0,
 ) -> np.ndarray:
     """Move to joint angles ``q`` (rad) along a collision-free timed path.
+
+    With a ``scene`` (obstacles in the handle frame) the path keeps ``clearance`` (m) from
+    them; a goal or present pose that does not is refused naming the obstacles.
 
     Checks the servos (``check_state``: registers and present pose), plans and times the
     path (``plan_move``), turns torque on holding the present pose, then streams the
@@ -737,7 +747,16 @@ def goto(
     goal_ticks(design, calibration, q)  # refuses before touching the bus
     start = check_state(bus, design, calibration, max_torque_fraction)
     samples = plan_move(
-        design, calibration, start, q, rate=rate, limits=limits, timeout=timeout, seed=seed
+        design,
+        calibration,
+        start,
+        q,
+        rate=rate,
+        limits=limits,
+        timeout=timeout,
+        seed=seed,
+        scene=scene,
+        clearance=clearance,
     )
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)

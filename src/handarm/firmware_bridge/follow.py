@@ -44,7 +44,10 @@ from handarm.firmware_bridge.bus import (
 from handarm.firmware_bridge.calibration import Calibration
 from handarm.firmware_bridge.motion import (
     MotionLimits,
+    PlanningError,
     check_step,
+    scene_blockers,
+    scene_margin,
     segment_valid,
     serial_checks,
 )
@@ -173,9 +176,19 @@ def open_source(spec: str) -> TargetSource:
 
 
 def follow_step(
-    design: ArmDesign, q_cmd, target, dt: float, limits: MotionLimits
+    design: ArmDesign,
+    q_cmd,
+    target,
+    dt: float,
+    limits: MotionLimits,
+    scene=None,
+    clearance: float = 0.0,
 ) -> tuple[np.ndarray, int]:
     """The next command from ``q_cmd`` towards the IK answer for ``target`` = (p, e).
+
+    With a ``scene`` the answer is solved keeping ``clearance + scene_margin`` from the
+    obstacles and the step's line keeps ``clearance``; a target whose every solution meets
+    an obstacle gives no answer, and the arm holds.
 
     Returns
     -------
@@ -188,18 +201,23 @@ def follow_step(
     from handarm.ik import solve
 
     p, e = target
-    result = solve(design, p, e, current=q_cmd)
+    if scene is not None and len(scene):
+        margin = clearance + scene_margin(design)
+        result = solve(design, p, e, current=q_cmd, scene=scene, clearance=margin)
+    else:
+        result = solve(design, p, e, current=q_cmd)
     goal = getattr(result, "follow", None)
     if goal is None:
         return q_cmd, 0
     q_next = check_step(design, q_cmd, np.asarray(goal, float), dt, limits)
     for _ in range(4):
-        if segment_valid(design, q_cmd, q_next):
+        if segment_valid(design, q_cmd, q_next, scene, clearance):
             return q_next, int(result.reached_dof)
         q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
     return q_cmd, int(result.reached_dof)
 
 
+@serial_checks()  # the whole loop runs the collision kernels on this thread only
 def follow(
     bus: ServoBus,
     design: ArmDesign,
@@ -211,8 +229,13 @@ def follow(
     max_torque_fraction: float = 1.0,
     max_periods: int | None = None,
     on_period=None,
+    scene=None,
+    clearance: float = 0.0,
 ) -> dict:
     """Run the follow loop until the source ends (file, stdin), ``max_periods``, or Ctrl-C.
+
+    With a ``scene`` (obstacles in the handle frame) every streamed step keeps
+    ``clearance`` (m) from them (``follow_step``); the present pose must too.
 
     Checks the servos and the present pose first (``check_state``) and turns torque on
     holding it. Every period: newest target -> ``follow_step`` -> ``send_sample`` -> one
@@ -226,26 +249,17 @@ def follow(
         its command on the bus: median, 95th percentile, max), ``period_ms`` (same), and
         ``q`` (last command, rad).
     """
-    with serial_checks():
-        return _follow(
-            bus,
-            design,
-            calibration,
-            source,
-            rate,
-            limits,
-            max_torque_fraction,
-            max_periods,
-            on_period,
-        )
-
-
-def _follow(
-    bus, design, calibration, source, rate, limits, max_torque_fraction, max_periods, on_period
-) -> dict:
+    surroundings = (scene, clearance)
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
     q_cmd = check_state(bus, design, calibration, max_torque_fraction)
+    blockers = scene_blockers(design, q_cmd, *surroundings)
+    if blockers:
+        source.close()
+        raise PlanningError(
+            f"present pose: within the clearance of {', '.join(blockers)}; move the arm clear "
+            "or the obstacles away; nothing was sent"
+        )
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     target, latencies, periods, n_targets = None, [], [], 0
@@ -262,7 +276,7 @@ def _follow(
                 target = parse_target(line, f"target line {n}")
                 n_targets += 1
             if target is not None:
-                q_next, _ = follow_step(design, q_cmd, target, dt, limits)
+                q_next, _ = follow_step(design, q_cmd, target, dt, limits, *surroundings)
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:
                     latencies.append(time.perf_counter() - arrival)
