@@ -201,9 +201,10 @@ def _keep_clear(design, arm, n_targets, seed):
         scene = random_scene(rng, 4)
         obstacles = fcl_obstacles(scene, "outside")
         r = ik.solve(design, p, e, scene=scene, clearance=c)
+        pa, ea = r.achieved_position, r.achieved_direction  # (p, e) unless degraded
         for j in range(r.count):
             qs = [r.solutions[j]] + [
-                ik.configuration_at(design, p, e, r.branches[j], u, azimuth=r.azimuth)
+                ik.configuration_at(design, pa, ea, r.branches[j], u, azimuth=r.azimuth)
                 for u in _inside(*r.intervals[j], 50)
             ]
             for q in qs:
@@ -252,8 +253,40 @@ def test_a_target_that_only_collides_names_the_obstacle(design):
     p, e = handarm.forward(design, q0)
     # a big box around the tool point's approach: every solution passes through it
     scene = Scene.empty().with_box([0.06, 0.06, 0.06], p - 0.04 * e, name="fixture")
-    r = ik.solve(design, p, e, scene=scene)
+    r = ik.solve(design, p, e, scene=scene, degrade=False)
     assert r.count == 0 and r.blocked_by == ("fixture",)
+
+
+def test_degradation_searches_with_the_scene(design, arm):
+    """Exact solutions all blocked: the degraded answer keeps clear (model and meshes)."""
+    rng = np.random.default_rng(8)
+    c = 0.002
+    levels = []
+    for q0 in (np.radians([20, 30, -40, 30, 40, -20]), np.radians([-30, 50, -20, -40, 30, 10])):
+        p, e = handarm.forward(design, q0)
+        scene = Scene.empty().with_box([0.06, 0.06, 0.06], p - 0.04 * e, name="fixture")
+        assert ik.solve(design, p, e, scene=scene, clearance=c, degrade=False).count == 0
+        assert ik.solve(design, p, e).reached_dof == 5  # it is the scene that degrades it
+        r = ik.solve(design, p, e, scene=scene, clearance=c, current=q0)
+        assert r.blocked_by == ("fixture",) and 2 <= r.reached_dof < 5 and r.count > 0
+        levels.append(r.reached_dof)
+        qs = [r.solutions, r.follow[None]]
+        for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+            us = np.linspace(lo, hi, 52)[1:-1] if hi > lo else np.array([lo])
+            q, ok = ik.configurations_along(
+                design, r.achieved_position, r.achieved_direction, br, us, azimuth=r.azimuth
+            )
+            qs.append(q[ok])
+        qs = np.concatenate(qs)
+        assert handarm.is_valid(design, qs).all()
+        assert scene_gaps(design, qs, scene, c).min() >= 0
+        # the printed meshes, placed by the URDF, against the box (fcl, independent)
+        obstacles = fcl_obstacles(scene, "outside")
+        for q in qs[rng.choice(len(qs), min(len(qs), 12), replace=False)]:
+            assert mesh_distance(arm, q, obstacles) >= c - 1e-9
+        if r.reached_dof >= 3:
+            np.testing.assert_allclose(handarm.forward(design, r.solutions)[0][0], p, atol=1e-9)
+    assert levels
 
 
 def test_world_scene_placed_by_the_handle_pose(design):

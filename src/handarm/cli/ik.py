@@ -37,8 +37,8 @@ def cmd_ik(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise option_error(exc, _OPTIONS) from None
-    if scene is not None and result.count == 0 and result.blocked_by and not args.json:
-        print(f"no solution keeps clear of: {', '.join(result.blocked_by)}")
+    if scene is not None and result.blocked_by and not args.json:
+        print(f"no exact solution keeps clear of: {', '.join(result.blocked_by)}")
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
     else:

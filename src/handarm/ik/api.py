@@ -52,8 +52,10 @@ def solve(
         closest to ``e``, reported as level 4 when it keeps pitch or yaw.
     scene : handarm.scene.Scene, optional
         Obstacles in the handle frame: the ranges keep ``clearance`` (m) from them (see
-        ``handarm.ik.obstacles``). With a scene there is no degradation yet: a target whose
-        every solution meets an obstacle gives an empty result naming them in ``blocked_by``.
+        ``handarm.ik.obstacles``). A target whose every solution meets an obstacle degrades
+        with the scene included (every level keeps the clearance); ``blocked_by`` names the
+        obstacles that blocked the exact solutions. With ``degrade=False`` the result is
+        then empty.
     clearance : float
         Distance (m) kept from the scene's obstacles.
 
@@ -77,7 +79,13 @@ def solve(
     if scene is not None:
         from handarm.ik.obstacles import solve_in_scene
 
-        return solve_in_scene(design, p, e, scene, clearance, current)
+        result = solve_in_scene(design, p, e, scene, clearance, current)
+        if result.count or not degrade:
+            return result
+        p, e, current = check_inputs(design, p, e, current)
+        degraded = degrade_target(design, p, e, current, order, scene=scene, clearance=clearance)
+        _check_finite(degraded)
+        return dataclasses.replace(degraded, blocked_by=result.blocked_by)
     p, e, current = check_inputs(design, p, e, current)
     result = _near_vertical(design, p, e, current)
     if result is None:

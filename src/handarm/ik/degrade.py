@@ -24,10 +24,17 @@ Searches over directions are exact at their final step: a grid finds the solvabl
 closest to e and bisection pins its boundary to 1e-9 rad; the level-3 search also starts
 from directions of valid configurations that reach p (so small caps of solvable directions
 near the reach sphere are not missed) and slides along the boundary towards e.
+
+In a scene (``degrade_target(..., scene=, clearance=)``) every level searches with the
+obstacles included: "solvable" means a range that keeps the clearance
+(``count_solutions(..., scene=)``), answers come from ``solve_in_scene``, and the
+configurations polished towards p must keep the clearance as well as be valid. The scene is
+held in a context variable for the duration of the call, which the helpers below read.
 """
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import functools
 import math
@@ -57,9 +64,39 @@ _SEEDS = 8  # valid configurations near p polished as seeds (levels 3 and 2)
 KEEP_TOL = 1e-9
 
 
+#: (scene, clearance) while ``degrade_target`` runs in a scene, else None.
+_SCENE: contextvars.ContextVar = contextvars.ContextVar("degrade_scene", default=None)
+
+
 def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     dirs = np.atleast_2d(dirs)
-    return S.count_solutions(design, np.broadcast_to(p, dirs.shape).copy(), dirs) > 0
+    P = np.broadcast_to(p, dirs.shape).copy()
+    scene = _SCENE.get()
+    if scene is None:
+        return S.count_solutions(design, P, dirs) > 0
+    return S.count_solutions(design, P, dirs, scene=scene[0], clearance=scene[1]) > 0
+
+
+def _solve_exact(design: ArmDesign, p, e, current) -> IKResult:
+    """``solve_exact``, or ``solve_in_scene`` in a scene."""
+    scene = _SCENE.get()
+    if scene is None:
+        return S.solve_exact(design, p, e, current)
+    from handarm.ik.obstacles import solve_in_scene
+
+    return solve_in_scene(design, p, e, scene[0], scene[1], current)
+
+
+def _valid(design: ArmDesign, q) -> bool:
+    """Valid under the design's collision model, and clear of the scene if there is one."""
+    if not is_valid(design, q):
+        return False
+    scene = _SCENE.get()
+    if scene is None:
+        return True
+    from handarm.scene import scene_free
+
+    return bool(scene_free(design, q, scene[0], scene[1]))
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -206,7 +243,7 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     """
     scored = []
     for v in candidates:
-        r = S.solve_exact(design, p, v, current)
+        r = _solve_exact(design, p, v, current)
         if r.count == 0:
             continue
         err = float(_angle(v, e))
@@ -251,11 +288,29 @@ def _circle_candidates(design, p, e, current) -> list[np.ndarray]:
 
 
 def degrade_target(
-    design: ArmDesign, p: np.ndarray, e: np.ndarray, current=None, order: str = "paper"
+    design: ArmDesign,
+    p: np.ndarray,
+    e: np.ndarray,
+    current=None,
+    order: str = "paper",
+    *,
+    scene=None,
+    clearance: float = 0.0,
 ) -> IKResult:
-    """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc)."""
+    """The closest reachable pose to (p, e), which has no 5-DoF solution (see module doc).
+
+    With a ``scene`` (handle frame) every level keeps ``clearance`` (m) from its obstacles.
+    """
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
+    token = _SCENE.set(None if scene is None or len(scene) == 0 else (scene, clearance))
+    try:
+        return _degrade(design, p, e, current, order)
+    finally:
+        _SCENE.reset(token)
+
+
+def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     # degenerate exact poses (the straight arm): the stretched arm aimed at p, polished
     for q in _configs_reaching(design, p, current, cloud=False):
         if float(_angle(forward(design, q)[1], e)) < 1e-9:
@@ -312,12 +367,12 @@ def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
             ftol=1e-12,
         )
         x = np.clip(fit.x, design.lower, design.upper)
-        if is_valid(design, x):
+        if _valid(design, x):
             return x
         lo, hi = 0.0, 1.0
         for _ in range(40):
             mid = 0.5 * (lo + hi)
-            if is_valid(design, q + mid * (x - q)):
+            if _valid(design, q + mid * (x - q)):
                 lo = mid
             else:
                 hi = mid
@@ -334,10 +389,13 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> lis
     seeds = [np.clip(np.array([q1, 0.0, 0.0, q4, 0.0, 0.0]), design.lower, design.upper)]
     if current is not None:
         seeds.append(np.clip(current, design.lower, design.upper))
+    seeds = [q for q in seeds if _valid(design, q)]
     cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
     if len(cloud_q):
-        seeds.extend(cloud_q[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[:_SEEDS]])
-    return [q for q in seeds if is_valid(design, q)]
+        # the nearest that are valid (in a scene, many near p may meet an obstacle)
+        near = cloud_q[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[: 40 * _SEEDS]]
+        seeds.extend([q for q in near if _valid(design, q)][:_SEEDS])
+    return seeds
 
 
 def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> list[np.ndarray]:
@@ -358,6 +416,11 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
         err = float(np.linalg.norm(forward(design, q)[0] - p))
         if err < best_err - 1e-12:
             best_q, best_err = q, err
+    if best_q is None and _SCENE.get() is not None:  # nothing clear of the scene near p
+        return IKResult(
+            np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 5, 0.0, 0.0,
+            False, 0.0, p.copy(), e.copy(), None,
+        )  # fmt: skip
     if best_q is None:  # no valid seed at all: the zero pose is the fallback
         best_q = np.zeros(6)
         best_err = float(np.linalg.norm(forward(design, best_q)[0] - p))
@@ -366,7 +429,7 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     aim = p - p_reached
     if np.linalg.norm(aim) > 1e-12:
         aim = aim / np.linalg.norm(aim)
-        r = S.solve_exact(design, p_reached, aim, best_q if current is None else current)
+        r = _solve_exact(design, p_reached, aim, best_q if current is None else current)
         if r.count:
             return dataclasses.replace(
                 r,

@@ -46,14 +46,19 @@ class IKResult:
         With ``current``: the configuration inside the ranges nearest to it (u of each range
         clamped towards the present one). It moves little when the target moves little,
         which makes it the output to send in a handheld control loop. None without
-        ``current`` or without solutions.    clearances : ndarray, shape (k, 2) or None
+        ``current`` or without solutions.
+    clearances : ndarray, shape (k, 2) or None
         With a scene (``solve(..., scene=...)``): the smallest and largest clearance (m)
         between the printed links and the obstacles, sampled at 65 points of each range.
     clearest : ndarray, shape (k,) or None
         With a scene: the u (m) of each range's largest sampled clearance, where its
         representative in ``solutions`` sits.
     blocked_by : tuple of str
-        With a scene and no range left: the obstacles that block the exact solutions.
+        With a scene and no exact range left: the obstacles that block the exact solutions
+        (the result is then degraded, or empty when nothing near the target keeps clear).
+
+    A result with no range (``count == 0``) reached nothing: its level and errors are those
+    of the target itself (5, 0, 0).
     """
 
     solutions: np.ndarray
