@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import handarm
+from handarm import ik
 from handarm.cli import main
 from handarm.firmware_bridge import bus as B
 from handarm.firmware_bridge.emulator import (
@@ -230,7 +231,7 @@ def test_follow_in_a_scene_keeps_clear_and_holds_before_a_blocked_target(design)
 
     a = np.radians([0, 40, -30, 20, 10, 0])
     goal = np.radians([60, 40, -30, 20, 10, 0])
-    mid, _ = handarm.forward(design, np.radians([30, 40, -30, 20, 10, 0]))
+    mid, e_mid = handarm.forward(design, np.radians([30, 40, -30, 20, 10, 0]))
     scene = Scene.empty().with_sphere(mid, 0.015, name="ball")
     c = 0.003
     p_goal, e_goal = handarm.forward(design, goal)
@@ -248,16 +249,18 @@ def test_follow_in_a_scene_keeps_clear_and_holds_before_a_blocked_target(design)
         dense = _dense(poses)
         assert handarm.is_valid(design, dense).all()
         assert scene_gaps(design, dense, scene, c).min() >= 0
-        # a target whose every solution meets the ball: the arm holds where it is
-        inside = [json.dumps({"p": list(mid), "e": [1.0, 0.0, 0.0]})] * 20
+        # a target whose every exact solution meets the ball: the arm holds where it is
+        assert ik.solve(design, mid, e_mid, degrade=False).count > 0  # reachable, but blocked
+        inside = [json.dumps({"p": list(mid), "e": list(e_mid)})] * 20
         before = len(emu.log)
         q_before = poses[-1]
-        follow(
+        stats = follow(
             bus, design, cal, TargetSource(inside, paced=True), rate=100.0, max_periods=30,
             scene=scene, clearance=c,
         )  # fmt: skip
         held = streamed_poses(emu, design, cal, before)
         assert np.abs(held - q_before).max(initial=0.0) < 2 * 2 * np.pi / 4096
+        assert stats["blocked_by"] == ["ball"]
 
 
 def test_overheating_stops_the_move_and_holds(design):

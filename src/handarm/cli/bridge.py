@@ -304,6 +304,8 @@ def cmd_follow(args: argparse.Namespace) -> int:
         f"followed {stats['targets']} targets in {stats['periods']} periods "
         f"({stats['rate']:.1f} Hz achieved)"
     )
+    if stats["blocked_by"]:
+        print(f"held before targets blocked by: {', '.join(stats['blocked_by'])}")
     return 0
 
 

@@ -183,12 +183,13 @@ def follow_step(
     limits: MotionLimits,
     scene=None,
     clearance: float = 0.0,
-) -> tuple[np.ndarray, int]:
+) -> tuple[np.ndarray, int, tuple[str, ...]]:
     """The next command from ``q_cmd`` towards the IK answer for ``target`` = (p, e).
 
     With a ``scene`` the answer is solved keeping ``clearance + scene_margin`` from the
-    obstacles and the step's line keeps ``clearance``; a target whose every solution meets
-    an obstacle gives no answer, and the arm holds.
+    obstacles and the step's line keeps ``clearance``. A target whose every exact solution
+    meets an obstacle is refused: the arm holds, and the obstacles are returned (a target
+    out of reach in free space still degrades, in the scene, as without one).
 
     Returns
     -------
@@ -197,24 +198,31 @@ def follow_step(
         line; ``q_cmd`` itself when no such step exists.
     reached_dof : int
         The degrees of freedom the IK answer achieves (0 when it gives no configuration).
+    blocked_by : tuple of str
+        With a scene: the obstacles that block every exact solution (the arm then holds).
     """
     from handarm.ik import solve
 
     p, e = target
     if scene is not None and len(scene):
         margin = clearance + scene_margin(design)
-        result = solve(design, p, e, current=q_cmd, scene=scene, clearance=margin)
+        kw = {"current": q_cmd, "scene": scene, "clearance": margin}
+        result = solve(design, p, e, degrade=False, **kw)
+        if result.blocked_by:
+            return q_cmd, 0, result.blocked_by
+        if result.count == 0:
+            result = solve(design, p, e, **kw)
     else:
         result = solve(design, p, e, current=q_cmd)
     goal = getattr(result, "follow", None)
     if goal is None:
-        return q_cmd, 0
+        return q_cmd, 0, ()
     q_next = check_step(design, q_cmd, np.asarray(goal, float), dt, limits)
     for _ in range(4):
         if segment_valid(design, q_cmd, q_next, scene, clearance):
-            return q_next, int(result.reached_dof)
+            return q_next, int(result.reached_dof), ()
         q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
-    return q_cmd, int(result.reached_dof)
+    return q_cmd, int(result.reached_dof), ()
 
 
 @serial_checks()  # the whole loop runs the collision kernels on this thread only
@@ -246,22 +254,24 @@ def follow(
     -------
     dict
         ``periods``, ``targets``, ``rate`` (achieved, Hz), ``latency_ms`` (target arrival to
-        its command on the bus: median, 95th percentile, max), ``period_ms`` (same), and
-        ``q`` (last command, rad).
+        its command on the bus: median, 95th percentile, max), ``period_ms`` (same),
+        ``q`` (last command, rad) and ``blocked_by`` (obstacles that blocked every exact
+        solution of some target, which the arm held before).
     """
     surroundings = (scene, clearance)
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
     q_cmd = check_state(bus, design, calibration, max_torque_fraction)
-    blockers = scene_blockers(design, q_cmd, *surroundings)
-    if blockers:
+    present = scene_blockers(design, q_cmd, *surroundings)
+    if present:
         source.close()
         raise PlanningError(
-            f"present pose: within the clearance of {', '.join(blockers)}; move the arm clear "
+            f"present pose: within the clearance of {', '.join(present)}; move the arm clear "
             "or the obstacles away; nothing was sent"
         )
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
+    blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
     target, latencies, periods, n_targets = None, [], [], 0
     i = 0
     t0 = last = time.perf_counter()
@@ -276,7 +286,8 @@ def follow(
                 target = parse_target(line, f"target line {n}")
                 n_targets += 1
             if target is not None:
-                q_next, _ = follow_step(design, q_cmd, target, dt, limits, *surroundings)
+                q_next, _, blocked = follow_step(design, q_cmd, target, dt, limits, *surroundings)
+                blockers.update(blocked)
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:
                     latencies.append(time.perf_counter() - arrival)
@@ -317,4 +328,5 @@ def follow(
         "latency_ms": stats(latencies),
         "period_ms": stats(periods),
         "q": q_cmd,
+        "blocked_by": sorted(blockers),
     }
