@@ -498,6 +498,35 @@ def test_workspace_command_with_a_scene(tmp_path, capsys):
         assert not (tmp_path / "x").exists()
 
 
+def test_ik_picture_of_a_scene(tmp_path, capsys):
+    """--picture draws the obstacles, the target and the arm; bad paths refused first."""
+    from matplotlib.image import imread
+
+    from handarm.cli import main
+
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[[box]]\nsize = [0.06, 0.06, 0.06]\nposition = [0.12, 0.0, 0.06]\n")
+    argv = ["ik", "--pos", "0.2", "0.05", "0.05", "--dir", "1", "0", "0.3"]
+    argv += ["--scene", str(scene), "--clearance", "2"]
+    picture = tmp_path / "reach.png"
+    assert main([*argv, "--picture", str(picture)]) == 0
+    assert f"wrote {picture}" in capsys.readouterr().out
+    img = imread(picture)[..., :3]
+    assert img.shape[0] > 300 and img.shape[1] > 600
+    red = (img[..., 0] > 0.8) & (img[..., 1] < 0.2) & (img[..., 2] < 0.2)  # the target
+    blue = (img[..., 2] > 0.6) & (img[..., 0] < 0.3)  # the first range's colour
+    assert red.sum() > 20 and blue.sum() > 50
+    assert {p.name for p in tmp_path.iterdir()} == {"scene.toml", "reach.png"}  # no leftovers
+    for bad, message in (
+        (tmp_path / "reach.jpg", "--picture: expected a .png file name"),
+        (tmp_path / "nope" / "a.png", "--picture: no such folder"),
+    ):
+        assert main([*argv, "--picture", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+        assert not bad.exists()
+
+
 def test_meshed_obstacles_bracket_the_true_shapes():
     """The yardstick itself: 'inside' meshes lie within the primitive, 'outside' ones hold it."""
     rng = np.random.default_rng(11)

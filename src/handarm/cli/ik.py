@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import numpy as np
 
 from handarm.cli._common import (
+    UsageError,
     add_scene_options,
     load_design,
     load_scene,
@@ -25,6 +27,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
     design = load_design(args.design)
     current = None if args.current is None else np.radians(args.current)
     scene, clearance = load_scene(args)
+    picture = _picture_path(args.picture)
     try:
         result = ik.solve(
             design,
@@ -43,7 +46,28 @@ def cmd_ik(args: argparse.Namespace) -> int:
         print(json.dumps(result.to_dict(), indent=2))
     else:
         print(ik.format_result(result), end="")
+    if picture is not None:
+        from handarm.cad_out.scene_picture import scene_picture
+        from handarm.scene import Scene
+
+        scene_picture(design, Scene.empty() if scene is None else scene, result, picture)
+        if not args.json:
+            print(f"wrote {picture}")
     return 0 if result.count else 1
+
+
+def _picture_path(value: str | None) -> Path | None:
+    """--picture checked before any work: a .png in an existing folder, not a folder."""
+    if value is None:
+        return None
+    path = Path(value)
+    if path.suffix.lower() != ".png":
+        raise UsageError(f"--picture: expected a .png file name, got {value!r}")
+    if not path.parent.is_dir():
+        raise UsageError(f"--picture: no such folder: {str(path.parent)!r}")
+    if path.exists() and not path.is_file():
+        raise UsageError(f"--picture: {value!r} exists and is not a regular file")
+    return path
 
 
 def register(sub) -> None:
@@ -80,5 +104,10 @@ def register(sub) -> None:
     )
     p.add_argument("--exact", action="store_true", help="no graceful degradation")
     add_scene_options(p)
+    p.add_argument(
+        "--picture",
+        metavar="FILE.png",
+        help="draw the arm along every range (and the scene's obstacles) into this PNG",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(func=cmd_ik)
