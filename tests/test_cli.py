@@ -29,14 +29,26 @@ def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
     """A design file (own name, shorter links) in, every kind of file out (one build).
 
     Joint 2 asks for +-180 degrees, more than the printed links allow: the build carves the
-    largest healthy range, and everything after the carving uses the narrowed limits.
+    largest healthy range, and everything after the carving uses the narrowed limits. A box
+    beside the arm: the map is made around it and the report draws it.
     """
     limits = list(ArmDesign().joint_limits)
     limits[1] = (-math.pi, math.pi)
     d = ArmDesign(name="mine", link_lengths=[0.045] * 7, joint_limits=limits)
     d.to_toml(tmp_path / "mine.toml")
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[[box]]\nname = 'crate'\nsize = [0.1, 0.1, 0.1]\nposition = [0.15, 0, 0]\n")
     code, out, err = run(
-        capsys, "build", str(tmp_path / "mine.toml"), "--out", str(tmp_path / "b"), *QUICK
+        capsys,
+        "build",
+        str(tmp_path / "mine.toml"),
+        "--out",
+        str(tmp_path / "b"),
+        *QUICK,
+        "--scene",
+        str(scene),
+        "--clearance",
+        "1",
     )
     assert code == 0, err
     b = tmp_path / "b"
@@ -67,6 +79,13 @@ def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
         if j.get("type") == "hinge"
     ]
     workspace = json.loads((b / "workspace" / "workspace.json").read_text())
+    assert workspace["scene"]["obstacles"] == ["crate"]
+    assert workspace["scene"]["clearance_m"] == 1e-3
+    np.testing.assert_allclose(workspace["scene"]["rows"][0][1:4], [0.15, 0, 0])
+    assert "sensitivity" not in workspace
+    page = (b / "report.html").read_text()
+    assert "Mapped around 1 obstacle(s) (crate), keeping 1 mm" in page
+    assert '"name":"crate"' in page  # the box drawn in the 3D view
     assert len(urdf_limits) == len(mjcf_limits) == 6
     for limits_used in (urdf_limits, mjcf_limits, workspace["joint_limits_rad"]):
         np.testing.assert_allclose(limits_used, allowed.T, rtol=0, atol=1e-9)

@@ -199,18 +199,7 @@ def map_workspace(
     list of Path
     """
     check_design(design)
-    in_scene = scene is not None and len(scene) > 0
-    sensitivity = sensitivity and not in_scene
-    # the sensitivity screen costs about as much as the map again (28 coarser maps); a
-    # scene's queries cost 1.4x (1 box) to 1.9x (10 boxes) a free one's (measured)
-    scene_cost = 1.5 + 0.05 * len(scene) if in_scene else 1.0
-    check_resources(
-        design,
-        voxel=voxel,
-        directions=directions,
-        max_memory=max_memory,
-        max_seconds=max_seconds / (3 if sensitivity else 1) / scene_cost,
-    )
+    _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_seconds)
     if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
         raise ValueError(f"threshold: expected a number in (0, 1], got {threshold!r}")
     out = check_out_dir(out)
@@ -240,6 +229,25 @@ def map_workspace(
             scene=scene,
             clearance=clearance,
         )
+
+
+def _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_seconds) -> None:
+    """Refuse a workspace map (with its sensitivity screen) over the limits, before any work.
+
+    The sensitivity screen costs about as much as the map again (28 coarser maps), and is
+    not made in a scene; a scene's queries cost 1.4x (1 box) to 1.9x (10 boxes) a free
+    one's (measured).
+    """
+    in_scene = scene is not None and len(scene) > 0
+    sensitivity = sensitivity and not in_scene
+    scene_cost = 1.5 + 0.05 * len(scene) if in_scene else 1.0
+    check_resources(
+        design,
+        voxel=voxel,
+        directions=directions,
+        max_memory=max_memory,
+        max_seconds=max_seconds / (3 if sensitivity else 1) / scene_cost,
+    )
 
 
 def _limits_summary(design: ArmDesign, built: ArmDesign) -> str:
@@ -295,6 +303,8 @@ def build(
     progress: bool = False,
     max_memory: float = DEFAULT_MAX_MEMORY,
     max_seconds: float = DEFAULT_MAX_SECONDS,
+    scene=None,
+    clearance: float = 0.0,
 ) -> BuildResult:
     """Everything for one design, written into ``out``: the main job.
 
@@ -320,6 +330,10 @@ def build(
     max_memory, max_seconds : float
         Refuse (ValueError, with the estimate) a job estimated to need more memory (bytes)
         or time (s) than this; defaults 4 GiB and one hour.
+    scene : handarm.scene.Scene, optional
+        Obstacles (handle frame) around the arm: the workspace map counts only what the
+        printed arm reaches keeping ``clearance`` (m) from them, and the report draws them.
+    clearance : float
 
     Returns
     -------
@@ -340,7 +354,7 @@ def build(
     check_design(design)
     check_carvable(design)
     limits = {"max_memory": max_memory, "max_seconds": max_seconds}
-    check_resources(design, voxel=voxel, directions=directions, **limits)
+    _check_map(design, voxel, directions, True, scene, max_memory, max_seconds)
     check_resources(design, resolution_deg=resolution_deg, **limits)
     out = Path(out)
     with build_folder(out, design.to_dict()) as files:
@@ -365,6 +379,8 @@ def build(
             voxel=voxel,
             directions=directions,
             progress=progress,
+            scene=scene,
+            clearance=clearance,
             **limits,
         )
         from handarm.report import write_report  # plotly: loaded only when a report is made

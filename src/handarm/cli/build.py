@@ -11,8 +11,10 @@ from handarm.cli._common import (
     add_limits,
     add_map_options,
     add_quiet,
+    add_scene_options,
     limits,
     load_design,
+    load_scene,
     number,
     option_error,
 )
@@ -33,6 +35,7 @@ def cmd_build(args: argparse.Namespace) -> int:
     from handarm.pipeline import build
 
     design = load_design(args.design)
+    scene, clearance = load_scene(args)
     try:
         result = build(
             design,
@@ -41,6 +44,8 @@ def cmd_build(args: argparse.Namespace) -> int:
             voxel=args.voxel,
             directions=args.directions,
             progress=not args.quiet,
+            scene=scene,
+            clearance=clearance,
             **limits(args),
         )
     except ValueError as exc:
@@ -96,6 +101,7 @@ def register(sub) -> None:
     p.add_argument("--out", default="build", help="output folder (default: build)")
     _add_resolution(p)
     add_map_options(p)
+    add_scene_options(p)
     add_limits(p)
     add_quiet(p)
     p.set_defaults(func=cmd_build)

@@ -123,3 +123,28 @@ def workspace_figures(centres, index, handle_m: float) -> list:
         slice_heatmap(centres, index, "xy", handle_m, "slice z = 0: reachability index"),
         slice_heatmap(centres, index, "xz", handle_m, "slice y = 0: reachability index"),
     ]
+
+
+def obstacle_traces(rows, names) -> list:
+    """Plotly meshes of a scene's obstacles (``handarm.scene`` rows, m) in mm.
+
+    Each obstacle is drawn as the convex hull of points on its surface: a box's corners, a
+    sphere's and a capsule's end spheres sampled on a latitude-longitude grid.
+    """
+    import plotly.graph_objects as go
+
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+    unit = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], -1).reshape(-1, 3)
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    traces = []
+    for row, name in zip(np.asarray(rows, float), names, strict=True):
+        kind = int(row[0])
+        if kind == 2:
+            pts = row[1:4] + (corners * row[13:16]) @ row[4:13].reshape(3, 3).T
+        elif kind == 0:
+            pts = row[1:4] + row[4] * unit
+        else:
+            pts = np.concatenate([row[1:4] + row[7] * unit, row[4:7] + row[7] * unit])
+        x, y, z = (pts * 1000.0).T
+        traces.append(go.Mesh3d(x=x, y=y, z=z, alphahull=0, color="grey", opacity=0.55, name=name))
+    return traces

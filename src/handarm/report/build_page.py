@@ -427,6 +427,17 @@ def _workspace_section(page: Page, out: Path) -> None:
 
         with np.load(npz) as z:
             figs = workspace_figures(z["centres"], z["index"], float(z["handle"]))
+        scene = scores.get("scene") if scores else None
+        if scene:
+            from handarm.report._plots import obstacle_traces
+
+            figs[0].add_traces(obstacle_traces(scene["rows"], scene["obstacles"]))
+            page.text(
+                f"Mapped around {len(scene['obstacles'])} obstacle(s) "
+                f"({', '.join(scene['obstacles'])}), keeping {scene['clearance_m'] * 1e3:g} mm "
+                "from them: the grey shapes in the view below. The sensitivity screen is not "
+                "made in a scene."
+            )
         page.figure(figs[0], "ws3d", height=600)
         divs = [page.figure(f, f"ws_{n}", height=460, wrap=False) for n, f in enumerate(figs[1:])]
         page.raw('<div class="row">' + "".join(f"<div>{d}</div>" for d in divs) + "</div>")

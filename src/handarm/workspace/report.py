@@ -72,6 +72,7 @@ def write_workspace_outputs(
         report["scene"] = {
             "obstacles": list(scene.names),
             "clearance_m": clearance,
+            "rows": scene.obstacles.tolist(),  # handarm.scene's layout, for the report
         }
     if sensitivity:
         s_voxel = max(voxel, 0.03) if sensitivity_voxel is None else sensitivity_voxel
