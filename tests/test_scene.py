@@ -390,6 +390,11 @@ def test_empty_scene_changes_nothing(design):
         a = ik.solve(design, p, e, degrade=False)
         b = ik.solve(design, p, e, scene=Scene.empty())
         np.testing.assert_array_equal(a.intervals, b.intervals)
+    np.testing.assert_array_equal(
+        ik.count_solutions(design, P, E, scene=Scene.empty()), ik.count_solutions(design, P, E)
+    )
+    batch = ik.solve_batch(design, P, E, scene=Scene.empty())
+    np.testing.assert_array_equal(batch.counts, ik.solve_batch(design, P, E).counts)
 
 
 def test_ik_command_with_a_scene(tmp_path):

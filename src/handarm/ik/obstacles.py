@@ -179,6 +179,10 @@ def count_in_scene(
     """
     scene = _check_scene(scene)
     c = _check_clearance(clearance)
+    if len(scene) == 0:
+        from handarm.ik.exact import count_solutions
+
+        return count_solutions(design, P, E, min_width=min_width)
     P, E, psi = _check_batch(design, P, E)
     counts = np.zeros(len(P), np.int64)
     if len(P) == 0:
