@@ -489,7 +489,8 @@ def test_workspace_command_with_a_scene(tmp_path, capsys):
     assert main([*argv, "--scene", str(scene), "--clearance", "2"]) == 0
     assert "in a scene of 1 obstacles, 2 mm kept from them" in capsys.readouterr().out
     report = json.loads((out / "workspace.json").read_text())
-    assert report["scene"] == {"obstacles": ["box 1"], "clearance_m": 0.002}
+    assert report["scene"]["obstacles"] == ["box 1"] and report["scene"]["clearance_m"] == 0.002
+    np.testing.assert_allclose(report["scene"]["rows"][0][1:4], [0.12, 0.0, 0.06])
     assert "sensitivity" not in report
     world = tmp_path / "world.toml"
     world.write_text('frame = "world"\n' + scene.read_text())
