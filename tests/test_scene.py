@@ -437,6 +437,9 @@ def test_batch_and_count_in_a_scene_agree_with_solve(design):
         for i in range(len(P)):
             r = ik.solve(design, P[i], E[i], scene=scene, clearance=c, degrade=False)
             assert counts[i] == batch.counts[i] == r.count
+            assert batch.vertical[i] == (i == 0)
+            if r.count:  # the azimuth of L the ranges were solved at
+                assert batch.azimuth[i] == pytest.approx(r.azimuth, abs=1e-12)
             # the batch normalises E once more: the same answer to a few ulps
             np.testing.assert_allclose(batch.intervals[i, : r.count], r.intervals, atol=1e-12)
             np.testing.assert_array_equal(batch.branches[i, : r.count], r.branches)

@@ -31,7 +31,7 @@ from handarm.firmware_bridge.export import (
     write_header,
 )
 from handarm.summary import design_summary
-from handarm.workspace.report import write_workspace_outputs
+from handarm.workspace.report import makes_sensitivity, write_workspace_outputs
 
 __all__ = [
     "BuildResult",
@@ -238,9 +238,8 @@ def _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_se
     not made in a scene; a scene's queries cost 1.4x (1 box) to 1.9x (10 boxes) a free
     one's (measured).
     """
-    in_scene = scene is not None and len(scene) > 0
-    sensitivity = sensitivity and not in_scene
-    scene_cost = 1.5 + 0.05 * len(scene) if in_scene else 1.0
+    sensitivity = makes_sensitivity(sensitivity, scene)
+    scene_cost = 1.5 + 0.05 * len(scene) if scene else 1.0
     check_resources(
         design,
         voxel=voxel,

@@ -261,6 +261,13 @@ def test_follow_in_a_scene_keeps_clear_and_holds_before_a_blocked_target(design)
         held = streamed_poses(emu, design, cal, before)
         assert np.abs(held - q_before).max(initial=0.0) < 2 * 2 * np.pi / 4096
         assert stats["blocked_by"] == ["ball"]
+        # the present pose itself within the clearance of an obstacle: refused, nothing sent
+        tip, _ = handarm.forward(design, held[-1] if len(held) else q_before)
+        near = Scene.empty().with_sphere(tip, 0.01, name="hand")
+        goals = [emu.servos[i].get("goal_position") for i in range(1, 7)]
+        with pytest.raises(B.PlanningError, match=r"^present pose: .* of hand; nothing was sent"):
+            follow(bus, design, cal, TargetSource(lines), max_periods=5, scene=near, clearance=c)
+        assert [emu.servos[i].get("goal_position") for i in range(1, 7)] == goals
 
 
 def test_overheating_stops_the_move_and_holds(design):

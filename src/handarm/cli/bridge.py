@@ -163,19 +163,14 @@ def _limits(args, design):
 def cmd_goto(args: argparse.Namespace) -> int:
     """Move to joint targets (degrees) along a collision-free timed path."""
     from handarm.firmware_bridge.bus import goal_ticks, goto
-    from handarm.firmware_bridge.motion import PlanningError, scene_blockers
+    from handarm.firmware_bridge.motion import check_clear
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
     scene, clearance = load_scene(args)
     q = np.radians(args.q)
     goal_ticks(design, calibration, q)  # refuse before opening the port
-    blockers = scene_blockers(design, q, scene, clearance)
-    if blockers:
-        raise PlanningError(
-            f"goal: the pose comes within {args.clearance or 0:g} mm of {', '.join(blockers)}; "
-            "nothing was sent"
-        )
+    check_clear(design, q, scene, clearance, "goal")  # refuse before opening the port
     limits = _limits(args, design)
     if not args.rate > 0:
         raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")

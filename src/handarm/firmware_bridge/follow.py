@@ -45,8 +45,8 @@ from handarm.firmware_bridge.calibration import Calibration
 from handarm.firmware_bridge.motion import (
     MotionLimits,
     PlanningError,
+    check_clear,
     check_step,
-    scene_blockers,
     scene_margin,
     segment_valid,
     serial_checks,
@@ -204,9 +204,11 @@ def follow_step(
     from handarm.ik import solve
 
     p, e = target
-    if scene is not None and len(scene):
+    if scene:
         margin = clearance + scene_margin(design)
         kw = {"current": q_cmd, "scene": scene, "clearance": margin}
+        # exact ranges first: a blocked target is refused without paying for a degraded
+        # answer the arm would not take; only an unreachable one is solved again, degraded
         result = solve(design, p, e, degrade=False, **kw)
         if result.blocked_by:
             return q_cmd, 0, result.blocked_by
@@ -258,17 +260,14 @@ def follow(
         ``q`` (last command, rad) and ``blocked_by`` (obstacles that blocked every exact
         solution of some target, which the arm held before).
     """
-    surroundings = (scene, clearance)
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
     q_cmd = check_state(bus, design, calibration, max_torque_fraction)
-    present = scene_blockers(design, q_cmd, *surroundings)
-    if present:
+    try:
+        check_clear(design, q_cmd, scene, clearance, "present pose")
+    except PlanningError:
         source.close()
-        raise PlanningError(
-            f"present pose: within the clearance of {', '.join(present)}; move the arm clear "
-            "or the obstacles away; nothing was sent"
-        )
+        raise
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
@@ -286,7 +285,8 @@ def follow(
                 target = parse_target(line, f"target line {n}")
                 n_targets += 1
             if target is not None:
-                q_next, _, blocked = follow_step(design, q_cmd, target, dt, limits, *surroundings)
+                step = follow_step(design, q_cmd, target, dt, limits, scene, clearance)
+                q_next, _, blocked = step
                 blockers.update(blocked)
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:

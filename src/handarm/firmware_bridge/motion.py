@@ -117,12 +117,29 @@ def scene_margin(design: ArmDesign) -> float:
 
 def scene_blockers(design: ArmDesign, q, scene, clearance: float) -> list[str]:
     """Names of the obstacles configuration ``q`` comes within ``clearance + margin`` of."""
-    if scene is None or len(scene) == 0:
+    if not scene:
         return []
     from handarm.scene import scene_gaps
 
     gaps = scene_gaps(design, np.asarray(q, float), scene, clearance + scene_margin(design))
     return [name for name, g in zip(scene.names, gaps, strict=True) if g < 0]
+
+
+def check_clear(design: ArmDesign, q, scene, clearance: float, name: str) -> None:
+    """Refuse a pose (``name`` says which) that comes within the clearance of an obstacle.
+
+    Raises
+    ------
+    PlanningError
+        Naming the pose, the clearance with its sampling margin, and the obstacles.
+    """
+    blockers = scene_blockers(design, q, scene, clearance)
+    if blockers:
+        raise PlanningError(
+            f"{name}: the pose comes within {1e3 * clearance:g} mm (+ "
+            f"{1e3 * scene_margin(design):.2g} mm margin) of {', '.join(blockers)}; "
+            "nothing was sent"
+        )
 
 
 def _samples(design: ArmDesign, qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
@@ -152,7 +169,7 @@ def segment_valid(design: ArmDesign, qa, qb, scene=None, clearance: float = 0.0)
     samples = _samples(design, qa, qb)
     if not np.all(is_valid(design, samples)):
         return False
-    if scene is None or len(scene) == 0:
+    if not scene:
         return True
     from handarm.scene import scene_free
 
@@ -207,13 +224,7 @@ def plan_path(
     for name, q in (("start", start), ("goal", goal)):
         if not is_valid(design, q):
             raise PlanningError(f"{name}: the pose is not valid under the collision model")
-        blockers = scene_blockers(design, q, scene, clearance)
-        if blockers:
-            raise PlanningError(
-                f"{name}: the pose comes within {1e3 * clearance:g} mm (+ "
-                f"{1e3 * scene_margin(design):.2g} mm margin) of {', '.join(blockers)}; "
-                "nothing was sent"
-            )
+        check_clear(design, q, scene, clearance, name)
     if segment_valid(design, start, goal, scene, clearance):
         return np.stack([start, goal])
     try:

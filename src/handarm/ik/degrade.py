@@ -303,7 +303,7 @@ def degrade_target(
     """
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
-    token = _SCENE.set(None if scene is None or len(scene) == 0 else (scene, clearance))
+    token = _SCENE.set((scene, clearance) if scene else None)
     try:
         return _degrade(design, p, e, current, order)
     finally:

@@ -21,6 +21,7 @@ import numpy as np
 
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
+from handarm.ik._common import VERTICAL_EPS
 from handarm.ik._obstacles import (
     SAMPLES,
     SPLIT_CAP,
@@ -208,21 +209,21 @@ def solve_batch_in_scene(
     range are then solved one by one, so a batch mostly blocked or out of reach costs
     little. Representatives are each range's clearest sampled configuration.
     """
-    from handarm.ik.exact import solve_batch
-
     counts = count_in_scene(design, P, E, scene, clearance)
-    free = solve_batch(design, P, E)
-    P, E, _ = _check_batch(design, P, E)
+    P, E, psi = _check_batch(design, P, E)
+    vertical = np.hypot(E[:, 0], E[:, 1]) < VERTICAL_EPS
+    # the azimuth of L: e's own, or for a vertical e the one its solve used (else psi's)
+    azimuth = np.where(vertical, psi, np.arctan2(E[:, 1], E[:, 0]))
     width = max(MAX_SOLUTIONS, int(counts.max(initial=0)))
     sols = np.full((len(P), width, 6), np.nan)
     br = np.zeros((len(P), width, 3), np.int8)
     iv = np.full((len(P), width, 2), np.nan)
     for i in np.flatnonzero(counts):
         r = solve_in_scene(design, P[i], E[i], scene, clearance)
-        counts[i] = r.count
+        counts[i], azimuth[i] = r.count, r.azimuth
         sols[i, : r.count], br[i, : r.count], iv[i, : r.count] = (
             r.solutions,
             r.branches,
             r.intervals,
         )
-    return BatchResult(counts, sols, br, iv, free.truncated, free.vertical, free.azimuth)
+    return BatchResult(counts, sols, br, iv, np.zeros(len(P), bool), vertical, azimuth)

@@ -290,7 +290,7 @@ def reachability_map(
     sym_y, sym_z = symmetries(design) if use_symmetry else (False, False)
     sym_y = sym_y and _mirror_symmetric(dirs, 1)
     sym_z = sym_z and _mirror_symmetric(dirs, 2)
-    if off.any() or (scene is not None and len(scene)):
+    if off.any() or scene:
         sym_y = sym_z = False
     gx, gy, gz = np.meshgrid(centres + off[0], centres + off[1], centres + off[2], indexing="ij")
     inside = gx**2 + gy**2 + gz**2 <= (reach + voxel * math.sqrt(3) / 2) ** 2

@@ -23,6 +23,15 @@ from handarm.workspace.sensitivity import global_sensitivity
 __all__ = ["write_workspace_outputs"]
 
 
+def makes_sensitivity(sensitivity: bool, scene) -> bool:
+    """Whether the workspace outputs make the sensitivity screen: asked for, and no scene.
+
+    In a scene the screen is not made: it is a question about the arm, not about its
+    surroundings (and would map the design 28 more times around the obstacles).
+    """
+    return bool(sensitivity) and not scene
+
+
 def write_workspace_outputs(
     design: ArmDesign,
     out: str | Path,
@@ -49,8 +58,8 @@ def write_workspace_outputs(
     (a question about the arm, not about its surroundings) is not made.
     """
     out = Path(out)
-    in_scene = scene is not None and len(scene) > 0
-    sensitivity = sensitivity and not in_scene
+    in_scene = bool(scene)
+    sensitivity = makes_sensitivity(sensitivity, scene)
     wmap = reachability_map(
         design, voxel, directions, progress=progress, scene=scene, clearance=clearance
     )
