@@ -50,6 +50,7 @@ def opt_file(tmp_path):
         ("[constraints]\nmax_speed = 1", "constraints.max_speed: unknown constraint"),
         ("[constraints]\ntask_poses = 'none.csv'", "task_poses: file not found"),
         ("sampler = 'random'", "sampler: expected one of"),
+        ("population = 1", "population: expected an integer >= 2, got 1"),
     ],
 )
 def test_bad_optimization_files_name_the_field(tmp_path, text, message):
@@ -64,6 +65,42 @@ def test_bad_optimization_files_name_the_field(tmp_path, text, message):
     path.write_text(text + "\n" + "\n".join(base.values()))
     with pytest.raises((ValueError, FileNotFoundError), match=message):
         load_opt(path)
+
+
+def test_nsga2_generation_size_comes_from_the_file(opt_file):
+    """Every session of a run builds NSGA-II with the file's population (resumes agree)."""
+    from handarm.workspace.optimize import _sampler
+
+    opt_file.write_text("population = 7\n" + OPT)
+    opt = load_opt(opt_file)
+    assert opt.population == 7
+    assert _sampler(opt, "nsga2", 0)._population_size == 7
+    opt_file.write_text(OPT)
+    assert load_opt(opt_file).population == 20  # ten generations in 200 trials
+
+
+def test_gp_sampler_without_pytorch_is_refused_before_any_trial(
+    opt_file, tmp_path, monkeypatch, capsys
+):
+    import importlib.util
+
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "torch" else find_spec(name, *a),
+    )
+    out = tmp_path / "run"
+    code = main(["optimize", str(opt_file), "--out", str(out), "--sampler", "gp"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert "--sampler: 'gp' (Gaussian-process search) needs PyTorch" in err
+    assert "handarm[gp]" in err
+    assert not out.exists()  # refused before the journal was made
+    opt_file.write_text('sampler = "gp"\n' + OPT)
+    with pytest.raises(ValueError, match=r"opt.toml: sampler: 'gp' .* needs PyTorch"):
+        run_optimization(load_opt(opt_file), out)
+    assert not out.exists()
 
 
 def test_task_poses_csv(tmp_path, opt_file):

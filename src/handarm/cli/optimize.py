@@ -21,9 +21,13 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from handarm.workspace.opt_file import load_opt
-    from handarm.workspace.optimize import build_front, run_optimization
+    from handarm.workspace.optimize import build_front, check_sampler, run_optimization
 
     opt = load_opt(args.opt)
+    try:
+        check_sampler(opt, args.sampler)
+    except ValueError as exc:
+        raise option_error(exc, _OPTIONS) from None
     if args.trials is not None and args.trials < 1:
         raise option_error(ValueError(f"trials: expected >= 1, got {args.trials}"), _OPTIONS)
     if args.workers is not None and args.workers < 1:

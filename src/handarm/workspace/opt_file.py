@@ -5,6 +5,7 @@ An optimization file (TOML)::
     name = "neighbourhood"
     design = "arm.toml"            # optional, relative to this file; default: the paper's arm
     sampler = "nsga2"              # nsga2 | tpe | gp | grid (the --sampler option overrides)
+    population = 20                # NSGA-II's generation size (keep it across resumed runs)
     trials = 40                    # total finished trials wanted (--trials overrides)
     seed = 0
 
@@ -76,7 +77,7 @@ CONSTRAINTS = {
 }
 _SAMPLERS = ("nsga2", "tpe", "gp", "grid")
 _KEYS = {"name", "design", "sampler", "trials", "seed", "map", "variables", "objectives"}
-_KEYS |= {"constraints", "grid_points"}
+_KEYS |= {"constraints", "grid_points", "population"}
 _MAP_KEYS = {"voxel", "directions", "threshold", "min_width", "full_voxel", "full_directions"}
 _MAP_KEYS |= {"repeats"}
 
@@ -120,6 +121,7 @@ class OptFile:
     constraints: dict
     task_poses: np.ndarray | None
     grid_points: int
+    population: int = 20
 
     def design(self, params: dict) -> ArmDesign:
         """The base design with a trial's variable values applied."""
@@ -332,4 +334,5 @@ def load_opt(path: str | os.PathLike[str]) -> OptFile:
         constraints=constraints,
         task_poses=poses,
         grid_points=_int(f"{path}: grid_points", data.get("grid_points", 5), 2),
+        population=_int(f"{path}: population", data.get("population", 20), 2),
     )

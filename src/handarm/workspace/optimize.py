@@ -44,6 +44,7 @@ from handarm.workspace.opt_file import CONSTRAINTS, OptFile
 __all__ = [
     "measure_design",
     "run_optimization",
+    "check_sampler",
     "write_outputs",
     "hypervolume",
     "feasibility",
@@ -214,9 +215,14 @@ def _sampler(opt: OptFile, name: str, seed: int):
     import optuna
 
     if name == "nsga2":
-        return optuna.samplers.NSGAIISampler(seed=seed)
+        return optuna.samplers.NSGAIISampler(population_size=opt.population, seed=seed)
     if name == "tpe":
-        return optuna.samplers.TPESampler(seed=seed)
+        # multivariate: the variables' joint density (limits of two joints trade together);
+        # constant liar: trials in flight count as bad so two workers are not asked the
+        # same point
+        return optuna.samplers.TPESampler(
+            seed=seed, multivariate=True, constant_liar=True, n_startup_trials=20
+        )
     if name == "gp":
         return optuna.samplers.GPSampler(seed=seed)
     space = {}
@@ -230,6 +236,22 @@ def _sampler(opt: OptFile, name: str, seed: int):
         if v.integer:
             space[v.name] = sorted({int(round(x)) for x in space[v.name]})
     return _AskTellGrid(space, seed=seed)
+
+
+def check_sampler(opt: OptFile, sampler: str | None = None) -> None:
+    """Refuse, before any trial, a sampler (``sampler`` or the file's) whose library is absent.
+
+    Optuna's GP sampler imports PyTorch only after its random start-up trials, so without
+    this check a run would fail ten trials in.
+    """
+    import importlib.util
+
+    name, where = (sampler, "sampler") if sampler else (opt.sampler, f"{opt.path}: sampler")
+    if name == "gp" and importlib.util.find_spec("torch") is None:
+        raise ValueError(
+            f"{where}: 'gp' (Gaussian-process search) needs PyTorch, which is not installed: "
+            "pip install 'handarm[gp]', or use nsga2 or tpe"
+        )
 
 
 def _grid_class():
@@ -349,6 +371,7 @@ def run_optimization(
         raise ValueError(f"trials: expected an integer >= 1, got {trials!r}")
     if workers is not None and workers < 1:
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
+    check_sampler(opt, sampler)
     out = Path(out)
     total = trials or opt.trials
     study = open_study(opt, out, sampler)
