@@ -467,11 +467,15 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
     return best, _distance2(out[1], current)
 
 
+#: Targets per parallel task of ``count_many``.
+COUNT_BLOCK = 256
+
+
 @nb.njit(parallel=True, **JIT)
 def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
     """Number of solution ranges of each target, without storing them (workspace maps)."""
     n = P.shape[0]
-    block = 256
+    block = COUNT_BLOCK
     n_blocks = (n + block - 1) // block
     for b in nb.prange(n_blocks):
         work = _workspace(lower, upper, mdl[1].shape[0])
@@ -486,3 +490,8 @@ def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
 
 
 _COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardless
+
+#: ``count_many`` on the calling thread, for batches of one block: they gain nothing from the
+#: thread pool, whose wake-up costs milliseconds on a busy machine (degradation counts a
+#: direction or a few at a time, hundreds of times per target).
+count_many_serial = nb.njit(**JIT)(count_many.py_func)

@@ -40,12 +40,12 @@ import functools
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
+from handarm.ik._polish import polish_to_point
 from handarm.ik.results import IKResult
-from handarm.kinematics import forward, is_valid, joint_frames
+from handarm.kinematics import forward, is_valid
 
 __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction", "ORDERS"]
 
@@ -60,6 +60,10 @@ _BISECT_TOL = 1e-9  # rad: bisection stops when the bracket is this narrow
 _POLE = 1e-9
 _SPHERE = 2000
 _SEEDS = 8  # valid configurations near p polished as seeds (levels 3 and 2)
+_STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
+_SAME_DIRECTION = 1e-3  # rad: seed directions closer than this start one search
+_PATTERN_ROUNDS = 300  # rings of one pattern search, at most (a narrow sliver can creep on)
+_POLISH_STEPS = 500  # Levenberg-Marquardt steps of one polish (they take ~0.1 us each)
 #: A relaxed direction keeps e's pitch (or yaw) when it differs by less than this (rad).
 KEEP_TOL = 1e-9
 
@@ -185,8 +189,15 @@ def closest_direction(design, p, e0, seeds=()):
     seeds = np.asarray(seeds, float).reshape(-1, 3)
     if len(seeds):
         seeds = seeds[_solvable(design, p, seeds)]
-    order = np.argsort(_angle(cand, e0))[:3] if len(cand) else np.zeros(0, int)
-    starts = [cand[k] for k in order] + list(seeds)
+    order = np.argsort(_angle(cand, e0))[:_STARTS] if len(cand) else np.zeros(0, int)
+    starts = [cand[k] for k in order]
+    # the seeds nearest e0 that are not the same direction twice (seed configurations that
+    # reach p often share their direction's neighbourhood)
+    for v in seeds[np.argsort(_angle(seeds, e0))] if len(seeds) else ():
+        if len(starts) == 2 * _STARTS:
+            break
+        if all(float(_angle(v, w)) > _SAME_DIRECTION for w in starts[len(order) :]):
+            starts.append(v)
     found = []
     for good in starts:
         t = _bisect(lambda x, g=good: bool(_solvable(design, p, _slerp(e0, g, x))[0]), 1.0, 0.0)
@@ -196,10 +207,18 @@ def closest_direction(design, p, e0, seeds=()):
 
 
 def _pattern_search(design, p, e0, good):
-    """Move a solvable direction towards e0 by shrinking rings of trial directions."""
-    step = math.radians(2.0)
+    """Move a solvable direction towards e0 by rings of trial directions.
+
+    The ring's radius doubles after a move (up to 2 degrees) and halves after a miss, down
+    to 1e-8 rad: sliding along a boundary that nears e0 slowly takes a few long moves, not
+    millions of short ones. At most ``_PATTERN_ROUNDS`` rings.
+    """
+    top = math.radians(2.0)
+    step = top
     ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
-    while step > 1e-8:
+    for _ in range(_PATTERN_ROUNDS):
+        if step <= 1e-8:
+            break
         a0 = float(_angle(good, e0))
         t1 = np.cross(good, [0.0, 0.0, 1.0] if abs(good[2]) < 0.9 else [1.0, 0.0, 0.0])
         t1 /= np.linalg.norm(t1)
@@ -214,6 +233,7 @@ def _pattern_search(design, p, e0, good):
             if ok.any():
                 trial = trial[ok]
                 good = trial[int(np.argmin(_angle(trial, e0)))]
+                step = min(2.0 * step, top)
                 continue
         step *= 0.5
     return good
@@ -339,34 +359,18 @@ def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
     return q, forward(design, q)[0]
 
 
-def position_jacobian(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
-    """Tool point (3,) and its Jacobian (3, 6) at q: column k is z_k x (p - o_k).
-
-    z_k and o_k are the axle and origin of joint k+1 (``joint_frames``); exact, and one
-    kinematic pass instead of the six more a finite difference takes.
-    """
-    f = joint_frames(design, q)
-    tip = f[6, :3, 3]
-    return tip, np.cross(f[:6, :3, 2], tip - f[:6, :3, 3]).T
-
-
 def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
     """A valid configuration near q0 whose tool point is nearer p (q0 itself is valid).
 
-    Bounded least squares ignores collisions; where its answer collides, the last valid
-    point on the joint-space segment from q0 is kept and the fit restarted from there.
+    The bounded search (``polish_to_point``) ignores collisions; where its answer collides,
+    the last valid point on the joint-space segment from q0 is kept and the search restarted
+    from there.
     """
     q = q0
+    x = np.empty(6)
+    target = np.ascontiguousarray(p, dtype=float)
     for _ in range(4):
-        fit = least_squares(
-            lambda x: forward(design, x)[0] - p,
-            q,
-            jac=lambda x: position_jacobian(design, x)[1],
-            bounds=(design.lower - 1e-12, design.upper + 1e-12),
-            xtol=1e-12,
-            ftol=1e-12,
-        )
-        x = np.clip(fit.x, design.lower, design.upper)
+        polish_to_point(q, target, design.lengths, design.lower, design.upper, _POLISH_STEPS, x)
         if _valid(design, x):
             return x
         lo, hi = 0.0, 1.0

@@ -432,7 +432,8 @@ def count_solutions(
     counts = np.zeros(n, np.int64)
     for s in range(0, n, chunk):
         sl = slice(s, min(n, s + chunk))
-        K.count_many(
+        kernel = K.count_many if sl.stop - s > K.COUNT_BLOCK else K.count_many_serial
+        kernel(
             np.ascontiguousarray(P[sl]),
             np.ascontiguousarray(E[sl]),
             psi[sl],
