@@ -1,0 +1,138 @@
+"""Continuity of `follow` in a control loop: random 2 mm-step paths, and sensor noise.
+
+    python benchmarks/bench_tracking.py [--targets 20] [--seed 0] [--steps 150]
+
+``--targets`` paths of the paper's arm (printed-link model), each ``--steps`` targets 2 mm
+apart: the tool poses of a smooth random walk in joint space that stays inside the joint
+limits and valid, so that every target has an exact solution and the walk's own
+configuration ``q_gen`` is one of them. The loop solves each target with ``current`` = its
+last answer and moves to ``follow``. Prints the steps in joint space (largest |dq| of one
+step, degrees): median, 99th percentile and largest; how many steps exceed 5 degrees; and,
+of those, how many a configuration near the previous answer would have avoided (the walk's
+own ``q_gen`` lies closer than half the step: a jump the kinematics did not force). The
+rest are forced: the range ``current`` lay on ended (a joint limit or two links meeting)
+and no solution of the target is nearer.
+
+Then noise: each answer's pose tilted by 1e-6 rad and moved by 1e-6 m, solved again from
+the answer; prints how far ``follow`` moved (rad), and that against the least joint motion
+that follows the pose to first order (pinv(J) dx, J by central differences): near 1x means
+the follower adds nothing to what the arm's kinematics amplify.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import handarm
+from handarm import ik
+
+STEP = 0.002  # m between targets
+JUMP = np.radians(5.0)
+
+
+def walk(design, rng, steps: int) -> np.ndarray:
+    """Configurations (steps, 6) whose tool points lie STEP apart, all valid."""
+    while True:
+        q = rng.uniform(design.lower, design.upper)
+        if handarm.is_valid(design, q):
+            break
+    path = [q]
+    heading = rng.normal(size=6)
+    tries = 0
+    while len(path) < steps and tries < 50 * steps:
+        tries += 1
+        heading = 0.9 * heading + 0.45 * rng.normal(size=6)  # a smooth random heading
+        dq = heading / np.linalg.norm(heading)
+        p0 = handarm.forward(design, path[-1])[0]
+        moved = np.linalg.norm(handarm.forward(design, path[-1] + 1e-3 * dq)[0] - p0)
+        if moved < 1e-9:
+            continue
+        nxt = path[-1] + dq * (1e-3 * STEP / moved)
+        inside = np.all(nxt >= design.lower) and np.all(nxt <= design.upper)
+        if inside and handarm.is_valid(design, nxt):
+            path.append(nxt)
+        else:
+            heading = -heading + rng.normal(size=6)  # turn away from the wall
+    return np.array(path)
+
+
+def pose_jacobian(design, q, h: float = 1e-7) -> np.ndarray:
+    """d(p, e)/dq by central differences, shape (6, 6)."""
+    cols = []
+    for k in range(6):
+        dq = np.zeros(6)
+        dq[k] = h
+        (pa, ea), (pb, eb) = handarm.forward(design, q + dq), handarm.forward(design, q - dq)
+        cols.append(np.r_[pa - pb, ea - eb] / (2 * h))
+    return np.array(cols).T
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--targets", type=int, default=20, help="paths")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--steps", type=int, default=150, help="targets per path")
+    args = ap.parse_args(argv)
+    rng = np.random.default_rng(args.seed)
+    d = handarm.ArmDesign()
+    steps, unforced, forced, times, noise = [], 0, 0, [], []
+    levels = {}
+    for _ in range(args.targets):
+        qs = walk(d, rng, args.steps)
+        P, E = handarm.forward(d, qs)
+        current = qs[0]
+        for p, e, q_gen in zip(P[1:], E[1:], qs[1:], strict=True):
+            t = time.perf_counter()
+            r = ik.solve(d, p, e, current=current)
+            times.append(time.perf_counter() - t)
+            levels[r.reached_dof] = levels.get(r.reached_dof, 0) + 1
+            step = float(np.abs(r.follow - current).max())
+            steps.append(step)
+            if step > JUMP:
+                if np.linalg.norm(q_gen - current) < 0.5 * np.linalg.norm(r.follow - current):
+                    unforced += 1
+                else:
+                    forced += 1
+            # noise around this pose: 1e-6 rad of tilt, 1e-6 m of shift
+            axis = np.cross(e, rng.normal(size=3))
+            axis /= np.linalg.norm(axis)
+            e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
+            p2 = p + 1e-6 * rng.normal(size=3) / np.sqrt(3)
+            r2 = ik.solve(d, p2, e2, current=r.follow)
+            if r2.follow is not None:
+                moved = float(np.abs(r2.follow - r.follow).max())
+                # the least joint motion that follows the pose to first order: pinv(J) dx
+                need = np.abs(
+                    np.linalg.pinv(pose_jacobian(d, r.follow), rcond=1e-6) @ np.r_[p2 - p, e2 - e]
+                )
+                noise.append((moved, moved / max(float(need.max()), 1e-12)))
+            current = r.follow
+    s = np.degrees(np.array(steps))
+    print(
+        f"{args.targets} paths x {args.steps} targets, {STEP * 1e3:g} mm apart "
+        f"(paper's arm, {d.collision_model} model)"
+    )
+    print(f"answers by level: {dict(sorted(levels.items(), reverse=True))}")
+    print(
+        f"step (deg, largest joint): median {np.median(s):.3f}, 99th pct "
+        f"{np.percentile(s, 99):.3f}, largest {s.max():.2f}"
+    )
+    print(
+        f"steps > {np.degrees(JUMP):g} deg: {forced + unforced} "
+        f"(forced by the kinematics {forced}, avoidable {unforced})"
+    )
+    print(f"solve(current=) median {1e3 * np.median(times):.3f} ms")
+    n = np.array(noise)
+    print(
+        f"noise 1e-6 rad / 1e-6 m over {len(n)} poses: follow moved median "
+        f"{np.median(n[:, 0]):.2e} rad, largest {n[:, 0].max():.2e} rad; against the least "
+        f"motion that follows the pose (pinv(J) dx): median {np.median(n[:, 1]):.2f}x, "
+        f"largest {n[:, 1].max():.2f}x"
+    )
+
+
+if __name__ == "__main__":
+    main()
