@@ -108,9 +108,39 @@ def test_pulley_groove_at_the_motor_pulley_radius_and_fits_the_horn():
     assert len(planar.polygons_full[0].interiors) == d.servo.horn_bolts + 1
 
 
-def test_too_small_a_motor_pulley_is_refused():
-    with pytest.raises(ValueError, match="motor_pulley_radius"):
-        pulley_parts(handarm.ArmDesign(motor_pulley_radius=0.005))
+@pytest.mark.parametrize("radius", [0.0077, 0.008, 0.012])
+def test_motor_pulley_parts_mate_over_the_sunk_horn_screws(radius):
+    """Drum on flange, screw heads in their counterbores: nothing overlaps, walls hold."""
+    from manifold3d import Manifold
+
+    from handarm.handle import HEAD_SINK, HORN_HEAD_R
+
+    d = handarm.ArmDesign(motor_pulley_radius=radius)
+    flange, drum = pulley_parts(d)
+    drum = drum.translate([0, 0, FLANGE])
+    assert (flange ^ drum).volume() == pytest.approx(0.0, abs=1e-6)
+    bolt_r = d.servo.horn_bolt_circle * MM / 2
+    for k in range(d.servo.horn_bolts):
+        a = 2 * np.pi * k / d.servo.horn_bolts
+        # an M2.5 socket head (4.5 mm across, 2.5 mm tall) at the bottom of its counterbore
+        head = Manifold.cylinder(2.5, HORN_HEAD_R, circular_segments=32).translate(
+            [bolt_r * np.cos(a), bolt_r * np.sin(a), FLANGE - HEAD_SINK]
+        )
+        assert (head ^ flange).volume() == pytest.approx(0.0, abs=1e-6)
+        assert (head ^ drum).volume() == pytest.approx(0.0, abs=1e-6)
+    # 1.2 mm of drum under the groove's floor, measured on the mesh: the hexagonal socket's
+    # corners to the floor of the groove
+    mesh = to_trimesh(drum)
+    mid = mesh.bounds[:, 2].mean()
+    cut = mesh.section(plane_origin=[0, 0, mid], plane_normal=[0, 0, 1])
+    r = np.linalg.norm(cut.vertices[:, :2], axis=1)
+    assert r.max() - r.min() >= 1.2 - 1e-6
+
+
+@pytest.mark.parametrize("radius", [0.005, 0.0075])
+def test_too_small_a_motor_pulley_is_refused(radius):
+    with pytest.raises(ValueError, match="motor_pulley_radius: .* smallest driving hexagon"):
+        pulley_parts(handarm.ArmDesign(motor_pulley_radius=radius))
 
 
 @pytest.mark.slow

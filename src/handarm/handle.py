@@ -63,7 +63,14 @@ NUT_BLOCK, BOSS = 8.0, 8.0
 #: Bed thickness, grip radius and length (mm).
 BED, GRIP_RADIUS, GRIP_LENGTH = 5.0, 16.0, 100.0
 #: Motor pulley: horn flange thickness, drum flanges (mm), turns of cable on the drum.
-FLANGE, DRUM_LIP, TURNS = 3.0, 1.5, 3
+FLANGE, DRUM_LIP, TURNS = 4.0, 1.5, 3
+# the horn screws' socket heads (M2.5: 4.5 mm across, 2.5 mm tall) sink this deep into the
+# flange, leaving 1.3 mm under them: an M2.5 x 4 screw then holds 2.7 mm of the 3 mm horn
+HORN_HEAD_R, HEAD_SINK = 2.25, 2.7
+# the horn's centre screw head needs a pocket this wide and this high above the horn face;
+# the hexagon boss around it keeps 1.2 mm of wall, which sets the smallest hexagon
+CENTRE_POCKET_R, CENTRE_POCKET_TOP = 3.3, 4.5
+MIN_HEX_R = (CENTRE_POCKET_R + 1.2) / math.cos(math.pi / 6)  # corner radius, mm
 #: Lead screw: M3, its clearance hole and nut (mm).
 M3_CLEAR, M3_NUT_FLATS, M3_NUT_THICK = 3.4, 5.6, 2.6
 _SEG = 64
@@ -412,42 +419,51 @@ def _affine(m: np.ndarray) -> list[list[float]]:
 def pulley_parts(design: ArmDesign) -> tuple[Manifold, Manifold]:
     """The motor pulley in two printed parts, each in its frame (mm, z up from the horn face).
 
-    The horn flange screws onto the horn with the servo's horn screws (counterbored) and
-    carries a hexagonal boss inside the ring of screw heads; the drum slides over the boss
-    (torque through the hexagon) and is held by an M3 screw into the boss. The drum's groove
-    holds the cable's centre at exactly ``design.motor_pulley_radius``.
+    The horn flange screws onto the horn with the servo's horn screws, their heads sunk in
+    counterbores below the flange's top face, and carries a hexagonal boss; the drum sits on
+    the flange over the sunk heads, slides over the boss (torque through the hexagon) and is
+    held by an M3 screw into the boss. The hexagon is sized by the drum (1.2 mm of drum wall
+    under the groove) and kept inside the ring of counterbores, so the drum's radius does not
+    depend on the horn's bolt circle. The drum's groove holds the cable's centre at exactly
+    ``design.motor_pulley_radius``.
 
     Raises
     ------
     ValueError
-        If the groove leaves less than 1.2 mm of wall around the hexagon (names
-        ``motor_pulley_radius``).
+        If the groove leaves no room for a hexagon of at least 3 mm across its corners'
+        radius with 1.2 mm of drum wall around it (names ``motor_pulley_radius``).
     """
     servo = design.servo
     c = design.clearance * MM
     horn_r = servo.horn_diameter * MM / 2
     bolt_r = servo.horn_bolt_circle * MM / 2
-    head_r = 2.3  # M2.5 socket head
-    hex_r = bolt_r - head_r - 0.3  # hexagon corners clear the screw heads
     groove_w = _groove_width(design)
     drum_h = 2 * DRUM_LIP + groove_w
     rho = design.motor_pulley_radius * MM
     bottom = rho - design.cable_diameter * MM / 2
-    socket_r = hex_r + c / math.cos(math.pi / 6)
-    if bottom - socket_r < 1.2:
+    slack = c / math.cos(math.pi / 6)  # the socket's clearance, measured at its corners
+    # corners 0.3 mm inside the counterbores, 1.2 mm of drum wall outside the socket
+    hex_r = min(bolt_r - HORN_HEAD_R - 0.5, bottom - 1.2 - slack)
+    socket_r = hex_r + slack
+    if hex_r < MIN_HEX_R:
         raise ValueError(
-            f"motor_pulley_radius: {rho:g} mm leaves {bottom - socket_r:.2f} mm of drum wall "
-            f"around the {servo.horn_part} horn's screw ring (needs 1.2 mm)"
+            f"motor_pulley_radius: {rho:g} mm leaves {bottom - MIN_HEX_R - slack:.2f} mm of "
+            f"drum wall around the smallest driving hexagon ({MIN_HEX_R:.1f} mm; needs 1.2 mm)"
         )
-    flange = _cyl(horn_r, 0.0, FLANGE)
+    # the flange reaches 1.2 mm past the counterbores (a little wider than the horn)
+    flange = _cyl(max(horn_r, bolt_r + HORN_HEAD_R + 0.2 + 1.2), 0.0, FLANGE)
     boss = Manifold.extrude(CrossSection.circle(hex_r, 6), drum_h).translate([0, 0, FLANGE])
     flange = flange + boss
-    cuts = [_cyl(3.3, -1.0, FLANGE + 1.5), _cyl(1.25, FLANGE + 1.5, FLANGE + drum_h + 1)]
+    cuts = [
+        _cyl(CENTRE_POCKET_R, -1.0, CENTRE_POCKET_TOP),
+        _cyl(1.25, CENTRE_POCKET_TOP, FLANGE + drum_h + 1),  # the M3 screw holding the drum
+    ]
     for k in range(servo.horn_bolts):
         a = 2 * math.pi * k / servo.horn_bolts
         x, y = bolt_r * math.cos(a), bolt_r * math.sin(a)
         cuts.append(_cyl(1.45, -1.0, FLANGE + 1.0, x, y, 24))
-        cuts.append(_cyl(head_r + 0.2, FLANGE - 1.5, FLANGE + 1.0, x, y, 24))
+        # the head (2.5 mm tall) sits 0.2 mm below the top face, under the drum
+        cuts.append(_cyl(HORN_HEAD_R + 0.2, FLANGE - HEAD_SINK, FLANGE + 1.0, x, y, 24))
     flange = flange - Manifold.batch_boolean(cuts, OpType.Add)
     lip = drum_radius(design)
     drum = _cyl(lip, 0.0, drum_h)

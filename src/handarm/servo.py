@@ -6,9 +6,15 @@ voltage, mass, body outline and where the horn sits. Sources: ROBOTIS e-manual, 
 (Protocol 1.0 firmware, model number 310; specifications table: weight, "Dimensions (W x H x D)
 40.2 x 61.1 x 41 mm"); horn part numbers and screw sizes from the Poppy project's assembly notes
 (MX-64: horn HN05-N102, horn screws M2.5 x 4, centre screw M3 x 8, case screws M2.5 x 6).
-The horn's place on the case, its diameter and bolt circle were not found in the sources searched
-(the ROBOTIS drawing is a PDF not held here): they are marked ASSUMED below and must be checked
-against the servo in hand (the handle and pulleys read them from here only).
+The horn (28 mm across, 3 mm proud of the case, eight M2.5 holes on a 22 mm bolt circle, its
+axis 13.0 mm from the top end of the case and centred in its width) is marked CAD below: it is
+taken from public CAD models of the servo, not from a ROBOTIS drawing (a PDF not held here). They
+agree: RhobanProject/MetabotStudio ``backends/dxl/models/mx64-arm.scad`` (horn d = 28, h = 3,
+8 holes on r = 11) and ``mx64-values.scad`` (shaft 18 mm from the case's centre, 12.55 mm from
+its top), an OpenSCAD ``dynamixel_mx_64.scad`` (8 bolts on r = 11) and a build123d model whose
+numbers are "measured from the official ROBOTIS MX-64AT_AR STEP" (bolt circle 22 mm, axis 13.0
+mm from the top). Check them against the servo in hand; the handle and the motor pulleys read
+them from here only.
 """
 
 from __future__ import annotations
@@ -127,11 +133,11 @@ _MX64 = dict(
     no_load_speed=63.0 * 2.0 * math.pi / 60.0,  # 63 rpm at 12 V
     voltage=12.0,
     outline=(0.0402, 0.0611, 0.041),  # W x H x D, e-manual specifications table
-    horn_offset=0.0155,  # ASSUMED: axis 15 mm from the top end of the 61.1 mm case
-    horn_diameter=0.028,  # ASSUMED
-    horn_thickness=0.003,  # ASSUMED
-    horn_bolt_circle=0.016,  # ASSUMED
-    horn_bolts=8,  # ASSUMED
+    horn_offset=0.0611 / 2 - 0.013,  # CAD: axis 13.0 mm from the top end of the case
+    horn_diameter=0.028,  # CAD
+    horn_thickness=0.003,  # CAD
+    horn_bolt_circle=0.022,  # CAD
+    horn_bolts=8,  # CAD
     horn_bolt="M2.5 x 4",  # Poppy assembly notes
     horn_part="HN05-N102",  # Poppy assembly notes
     case_screw="M2.5 x 6",  # Poppy assembly notes
