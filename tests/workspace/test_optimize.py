@@ -79,6 +79,31 @@ def test_nsga2_generation_size_comes_from_the_file(opt_file):
     assert load_opt(opt_file).population == 20  # ten generations in 200 trials
 
 
+def test_search_starts_from_the_corners_and_a_latin_hypercube(opt_file, tmp_path):
+    """NSGA-II's first generation is space-filling, holds the box's corners, and is what runs."""
+    from handarm.workspace.optimize import first_generation
+
+    opt_file.write_text("population = 12\n" + OPT)
+    opt = load_opt(opt_file)
+    gen = first_generation(opt, 12)
+    assert gen == first_generation(opt, 12)  # reproducible from the file's seed
+    points = {(p["limit_deg_5"], p["beam_width"]) for p in gen}
+    for corner in ((110, 0.011), (110, 0.013), (160, 0.011), (160, 0.013)):
+        assert any(np.allclose(corner, p) for p in points), corner
+    assert all(p["limit_deg_5"] in (110, 120, 130, 140, 150, 160) for p in gen)
+    widths = np.array([p["beam_width"] for p in gen[4:]])  # the Latin hypercube part
+    assert np.all((widths >= 0.011) & (widths <= 0.013))
+    strata = np.floor((widths - 0.011) / 0.002 * len(widths)).astype(int)
+    assert sorted(strata) == list(range(len(widths)))  # one point per stratum
+    out = tmp_path / "run"
+    run_optimization(opt, out, workers=1, trials=5)
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    ran = [(float(r["limit_deg_5"]), float(r["beam_width"])) for r in rows]
+    assert len(ran) == 5
+    want = [(p["limit_deg_5"], p["beam_width"]) for p in gen[:5]]
+    assert np.allclose(sorted(ran), sorted(want))
+
+
 def test_gp_sampler_without_pytorch_is_refused_before_any_trial(
     opt_file, tmp_path, monkeypatch, capsys
 ):
