@@ -11,11 +11,18 @@ step, degrees): median, 99th percentile and largest; how many steps exceed 5 deg
 of those, how many a configuration near the previous answer would have avoided (the walk's
 own ``q_gen`` lies closer than half the step: a jump the kinematics did not force). The
 rest are forced: the range ``current`` lay on ended (a joint limit or two links meeting)
-and no solution of the target is nearer.
+and no solution of the target is nearer. Also how many steps the result flagged
+``family_ended`` (follow moved more than 10x the least joint motion to the new pose).
+
+Then paths that leave the workspace: from the pose of a valid configuration, the tool
+point moves straight away from joint 1 in 2 mm steps (direction held) until 60 mm past the
+arm's reach, so the answers go from exact through the degraded levels; prints the levels
+met, the step in joint space (median, largest) and how many steps were flagged.
 
 Then noise: each answer's pose tilted by 1e-6 rad and moved by 1e-6 m, solved again from
-the answer; prints how far ``follow`` moved (rad), and that against the least joint motion
-that follows the pose to first order (pinv(J) dx, J by central differences): near 1x means
+the answer; prints how far ``follow`` moved (rad, largest joint), and its Euclidean motion
+against the least joint motion that follows the pose to first order (|pinv(J) dx|,
+``handarm.ik.api.least_joint_motion``): near 1x means
 the follower adds nothing to what the arm's kinematics amplify.
 """
 
@@ -28,6 +35,7 @@ import numpy as np
 
 import handarm
 from handarm import ik
+from handarm.ik.api import least_joint_motion
 
 STEP = 0.002  # m between targets
 JUMP = np.radians(5.0)
@@ -59,17 +67,6 @@ def walk(design, rng, steps: int) -> np.ndarray:
     return np.array(path)
 
 
-def pose_jacobian(design, q, h: float = 1e-7) -> np.ndarray:
-    """d(p, e)/dq by central differences, shape (6, 6)."""
-    cols = []
-    for k in range(6):
-        dq = np.zeros(6)
-        dq[k] = h
-        (pa, ea), (pb, eb) = handarm.forward(design, q + dq), handarm.forward(design, q - dq)
-        cols.append(np.r_[pa - pb, ea - eb] / (2 * h))
-    return np.array(cols).T
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--targets", type=int, default=20, help="paths")
@@ -79,6 +76,7 @@ def main(argv=None) -> None:
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
     steps, unforced, forced, times, noise = [], 0, 0, [], []
+    flagged, flagged_jumps, noise_flagged = 0, 0, 0
     levels = {}
     for _ in range(args.targets):
         qs = walk(d, rng, args.steps)
@@ -91,6 +89,8 @@ def main(argv=None) -> None:
             levels[r.reached_dof] = levels.get(r.reached_dof, 0) + 1
             step = float(np.abs(r.follow - current).max())
             steps.append(step)
+            flagged += r.family_ended
+            flagged_jumps += r.family_ended and step > JUMP
             if step > JUMP:
                 if np.linalg.norm(q_gen - current) < 0.5 * np.linalg.norm(r.follow - current):
                     unforced += 1
@@ -102,14 +102,16 @@ def main(argv=None) -> None:
             e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
             p2 = p + 1e-6 * rng.normal(size=3) / np.sqrt(3)
             r2 = ik.solve(d, p2, e2, current=r.follow)
+            noise_flagged += r2.family_ended
             if r2.follow is not None:
                 moved = float(np.abs(r2.follow - r.follow).max())
-                # the least joint motion that follows the pose to first order: pinv(J) dx
-                need = np.abs(
-                    np.linalg.pinv(pose_jacobian(d, r.follow), rcond=1e-6) @ np.r_[p2 - p, e2 - e]
-                )
-                noise.append((moved, moved / max(float(need.max()), 1e-12)))
+                # the least joint motion that follows the pose to first order, |pinv(J) dx|
+                # (tests hold it to pinv of central differences of forward)
+                need = least_joint_motion(d, r.follow, p2, e2)
+                moved_norm = float(np.linalg.norm(r2.follow - r.follow))
+                noise.append((moved, moved_norm / max(need, 1e-12)))
             current = r.follow
+    leaving = leaving_paths(d, rng, args.targets)
     s = np.degrees(np.array(steps))
     print(
         f"{args.targets} paths x {args.steps} targets, {STEP * 1e3:g} mm apart "
@@ -124,14 +126,44 @@ def main(argv=None) -> None:
         f"steps > {np.degrees(JUMP):g} deg: {forced + unforced} "
         f"(forced by the kinematics {forced}, avoidable {unforced})"
     )
+    print(f"steps flagged family_ended: {flagged} ({flagged_jumps} of them > 5 deg)")
     print(f"solve(current=) median {1e3 * np.median(times):.3f} ms")
     n = np.array(noise)
     print(
         f"noise 1e-6 rad / 1e-6 m over {len(n)} poses: follow moved median "
         f"{np.median(n[:, 0]):.2e} rad, largest {n[:, 0].max():.2e} rad; against the least "
         f"motion that follows the pose (pinv(J) dx): median {np.median(n[:, 1]):.2f}x, "
-        f"largest {n[:, 1].max():.2f}x"
+        f"largest {n[:, 1].max():.2f}x; flagged family_ended: {noise_flagged}"
     )
+    lv, ls, lf = leaving
+    print(
+        f"leaving the workspace ({args.targets} straight paths, 2 mm steps): levels met "
+        f"{dict(sorted(lv.items(), reverse=True))}; step (deg, largest joint) median "
+        f"{np.median(ls):.3f}, largest {np.max(ls):.2f}; flagged family_ended: {lf}"
+    )
+
+
+def leaving_paths(design, rng, n: int):
+    """Straight paths from a held pose out past the reach: levels, steps (deg), flags."""
+    reach = float(np.sum(design.lengths))
+    levels, steps, flagged = {}, [], 0
+    for _ in range(n):
+        while True:
+            q = rng.uniform(design.lower, design.upper)
+            if handarm.is_valid(design, q):
+                break
+        p0, e = handarm.forward(design, q)
+        out = p0 / np.linalg.norm(p0)
+        current = q
+        for k in range(1, int((reach + 0.06 - np.linalg.norm(p0)) / STEP) + 1):
+            r = ik.solve(design, p0 + k * STEP * out, e, current=current)
+            levels[r.reached_dof] = levels.get(r.reached_dof, 0) + 1
+            if r.follow is None:  # nothing to follow: the loop keeps its pose
+                continue
+            steps.append(float(np.degrees(np.abs(r.follow - current).max())))
+            flagged += r.family_ended
+            current = r.follow
+    return levels, steps, flagged
 
 
 if __name__ == "__main__":

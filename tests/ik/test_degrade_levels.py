@@ -205,7 +205,7 @@ def test_follow_is_nearest_in_range_configuration(paper):
         r = ik.solve(paper, p, e, current=current)
         best = math.inf
         for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
-            u = np.linspace(lo, hi, 2001)[1:-1]
+            u = np.linspace(lo, hi, 2001)  # the exact ends included
             qs, ok = ik.configurations_along(paper, p, e, br, u, azimuth=r.azimuth)
             qs = qs[ok & handarm.is_valid(paper, qs)]
             if len(qs):
@@ -232,6 +232,65 @@ def test_near_vertical_noise_does_not_swing_the_tip_plane(paper):
         assert abs(r.achieved_direction[2] - e[2]) < 1e-12  # elevation kept exactly
         assert np.abs(r.follow - current).max() < 1e-4
         current = r.follow
+
+
+def test_least_joint_motion_is_pinv_of_the_pose_jacobian(paper):
+    """Against pinv of a central-difference Jacobian of ``forward`` (independent of the kernel)."""
+    from handarm.ik.api import least_joint_motion
+
+    rng = np.random.default_rng(5)
+    for q in rng.uniform(paper.lower, paper.upper, (20, 6)):
+        h = 1e-7
+        cols = []
+        for k in range(6):
+            dq = np.zeros(6)
+            dq[k] = h
+            (pa, ea), (pb, eb) = handarm.forward(paper, q + dq), handarm.forward(paper, q - dq)
+            cols.append(np.r_[pa - pb, ea - eb] / (2 * h))
+        p, e = handarm.forward(paper, q + rng.normal(scale=1e-4, size=6))
+        p0, e0 = handarm.forward(paper, q)
+        want = np.linalg.norm(np.linalg.pinv(np.array(cols).T, rcond=1e-6) @ np.r_[p - p0, e - e0])
+        assert least_joint_motion(paper, q, p, e) == pytest.approx(want, rel=1e-5)
+
+
+def test_noise_never_ends_the_family(paper):
+    """1e-6 rad / 1e-6 m of noise on a pose the arm holds: follow stays on its range."""
+    rng = np.random.default_rng(8)
+    for q in valid_configurations(paper, rng, 40):
+        p, e = handarm.forward(paper, q)
+        axis = np.cross(e, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        e2 = e * math.cos(1e-6) + np.cross(axis, e) * math.sin(1e-6)
+        p2 = p + 1e-6 * rng.normal(size=3) / math.sqrt(3)
+        r = ik.solve(paper, p2, e2, current=q)
+        assert r.reached_dof == 5 and not r.family_ended
+        assert r.follow_distance == pytest.approx(float(np.linalg.norm(r.follow - q)))
+        assert r.to_dict()["family_ended"] is False
+
+
+def test_a_range_ending_at_a_joint_limit_is_reported(paper):
+    """Joint 2 at its limit, the target pushed past it: follow must jump, and says so."""
+    from handarm.ik.api import FAMILY_END_RATIO, least_joint_motion
+
+    q = np.radians([10.0, 0.0, 0.0, 15.0, 30.0, -20.0])
+    q[1] = paper.upper[1]
+    pushed = q.copy()
+    pushed[1] += 1e-3
+    p, e = handarm.forward(paper, pushed)
+    r = ik.solve(paper, p, e, current=q)
+    assert r.reached_dof == 5 and r.family_ended
+    least = least_joint_motion(paper, q, p, e)
+    assert r.follow_distance > FAMILY_END_RATIO * least
+    # independently: no configuration of any range lies within that distance of q
+    nearest = math.inf
+    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+        qs, ok = ik.configurations_along(
+            paper, p, e, br, np.linspace(lo, hi, 2001), azimuth=r.azimuth
+        )
+        qs = qs[ok & handarm.is_valid(paper, qs)]
+        nearest = min(nearest, float(np.linalg.norm(qs - q, axis=1).min()))
+    assert nearest > FAMILY_END_RATIO * least
+    assert r.follow_distance <= nearest + 1e-6
 
 
 def test_straight_arm_is_an_exact_single_point(paper):

@@ -157,3 +157,32 @@ def polish_to_point(q0, target, a, lower, upper, max_iter, out):
             break
     out[:] = q
     return math.sqrt(cost)
+
+
+@nb.njit(**JIT)
+def least_motion(q, a, p, e):
+    """|pinv(J) dx|: the least joint motion taking q's pose to (p, e) to first order (rad).
+
+    J (6 x 6) stacks the tool point's Jacobian and the tool direction's (e = (cos s6 cos
+    psi, cos s6 sin psi, sin s6) turns with psi = t_3 and s6 = s_6, so its rows have rank
+    2); dx is the difference of the poses. Singular values under 1e-6 of the largest are
+    dropped, as a damped controller would.
+    """
+    here = np.empty(3)
+    jac = np.zeros((6, 6))
+    tool_point_and_jacobian(q, a, here, jac[:3])
+    psi = q[0] + q[1] + q[2]
+    s6 = q[3] + q[4] + q[5]
+    cp, sp, cs, ss = math.cos(psi), math.sin(psi), math.cos(s6), math.sin(s6)
+    for j in range(3):
+        jac[3, j], jac[4, j], jac[5, j] = -cs * sp, cs * cp, 0.0
+        jac[3, j + 3], jac[4, j + 3], jac[5, j + 3] = -ss * cp, -ss * sp, cs
+    dx = np.empty(6)
+    dx[:3] = p - here
+    dx[3], dx[4], dx[5] = e[0] - cs * cp, e[1] - cs * sp, e[2] - ss
+    u, s, vt = np.linalg.svd(jac)
+    dq = np.zeros(6)
+    for k in range(6):
+        if s[k] > 1e-6 * s[0]:
+            dq += vt[k] * (u[:, k] @ dx) / s[k]
+    return math.sqrt(dq @ dq)

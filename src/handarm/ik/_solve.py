@@ -424,16 +424,22 @@ def _distance2(q, current):
 
 @nb.njit(**JIT)
 def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples, refine, out):
-    """Two candidates for the point of the range [lo, hi] nearest to ``current``.
+    """Four candidates for the point of the range [lo, hi] nearest to ``current``.
 
     The squared joint-space distance is sampled at ``samples`` points a hair inside the
     ends; the best sample is refined by ``refine`` golden-section steps between its
-    neighbours. ``out[0]`` gets the best sample, ``out[1]`` the refined point; returns
-    their squared distances (inf where unreachable, both inf when no sample is reachable).
+    neighbours. ``out[0]`` gets the best sample, ``out[1]`` the refined point, ``out[2]``
+    and ``out[3]`` the exact ends lo and hi (a joint at its limit, where a range ridden to
+    its end stops); returns their squared distances (inf where unreachable).
     """
     fr = np.empty(FRAMES_SIZE)
     _frames(p, e, dx, dy, a, fr)
     q = np.empty(6)
+    end_lo, end_hi = np.inf, np.inf
+    if _configuration(fr, dx, dy, lo, elbow_b, elbow_e, a, out[2]):
+        end_lo = _distance2(out[2], current)
+    if _configuration(fr, dx, dy, hi, elbow_b, elbow_e, a, out[3]):
+        end_hi = _distance2(out[3], current)
     margin = min(1e-7, 0.25 * (hi - lo))
     u0, u1 = lo + margin, hi - margin
     step = (u1 - u0) / (samples - 1) if samples > 1 else 0.0
@@ -445,7 +451,7 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
                 best, k = d, i
                 out[0, :] = q
     if k < 0:
-        return np.inf, np.inf
+        return np.inf, np.inf, end_lo, end_hi
     x0, x1 = u0 + max(k - 1, 0) * step, u0 + min(k + 1, samples - 1) * step
     g = 0.5 * (math.sqrt(5.0) - 1.0)
     c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
@@ -463,8 +469,8 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
             ok = _configuration(fr, dx, dy, d, elbow_b, elbow_e, a, q)
             fd = _distance2(q, current) if ok else np.inf
     if not _configuration(fr, dx, dy, c, elbow_b, elbow_e, a, out[1]):
-        return best, np.inf
-    return best, _distance2(out[1], current)
+        return best, np.inf, end_lo, end_hi
+    return best, _distance2(out[1], current), end_lo, end_hi
 
 
 #: Targets per parallel task of ``count_many``.

@@ -9,11 +9,12 @@ import numpy as np
 
 from handarm.design import ArmDesign
 from handarm.ik._common import wrap
+from handarm.ik._polish import least_motion
 from handarm.ik.degrade import ORDERS, degrade_target
 from handarm.ik.exact import _exact, check_inputs
 from handarm.ik.results import IKResult
 
-__all__ = ["solve"]
+__all__ = ["solve", "least_joint_motion", "FAMILY_END_RATIO"]
 
 
 def solve(
@@ -80,12 +81,13 @@ def solve(
         from handarm.ik.obstacles import solve_in_scene
 
         result = solve_in_scene(design, p, e, scene, clearance, current)
-        if result.count or not degrade:
-            return result
         p, e, current = check_inputs(design, p, e, current)
+        if result.count or not degrade:
+            return _with_motion(design, result, current)
         degraded = degrade_target(design, p, e, current, order, scene=scene, clearance=clearance)
         _check_finite(degraded)
-        return dataclasses.replace(degraded, blocked_by=result.blocked_by)
+        degraded = dataclasses.replace(degraded, blocked_by=result.blocked_by)
+        return _with_motion(design, degraded, current)
     p, e, current = check_inputs(design, p, e, current)
     result = _near_vertical(design, p, e, current)
     if result is None:
@@ -93,7 +95,44 @@ def solve(
     if not (result.count or not degrade):
         result = degrade_target(design, p, e, current, order)
     _check_finite(result)
-    return result
+    return _with_motion(design, result, current)
+
+
+#: ``follow`` moving more than this many times the least joint motion that reaches the
+#: target's pose from ``current`` (to first order) means the range ``current`` lay on has
+#: ended. Measured (benchmarks/bench_tracking.py): 1e-6 noise moves follow at most 3.5x that
+#: motion, 2 mm path steps at most 3.5x (99th percentile 1.5x), jumps near singular poses
+#: included; a range that ends at a joint limit or where two links meet costs far more.
+FAMILY_END_RATIO = 10.0
+#: ... and more than this (rad): a microradian is far below a servo's step (1.5e-3 rad)
+FAMILY_END_FLOOR = 1e-6
+
+
+def _with_motion(design: ArmDesign, result: IKResult, current) -> IKResult:
+    """The result with ``follow_distance`` and ``family_ended`` filled in (with current)."""
+    if current is None or result.follow is None:
+        return result
+    moved = float(np.linalg.norm(result.follow - current))
+    least = least_joint_motion(design, current, result.achieved_position, result.achieved_direction)
+    ended = moved > FAMILY_END_RATIO * least + FAMILY_END_FLOOR
+    return dataclasses.replace(result, follow_distance=moved, family_ended=ended)
+
+
+def least_joint_motion(design: ArmDesign, q, p, e) -> float:
+    """The least joint motion (rad, Euclidean) that takes q's pose to (p, e) to first order.
+
+    ``|pinv(J) dx|`` with J the 6 x 6 Jacobian of the tool point and direction at q (the
+    direction's rows have rank 2) and dx the difference of the poses
+    (``handarm.ik._polish.least_motion``).
+    """
+    return float(
+        least_motion(
+            np.ascontiguousarray(q, dtype=float),
+            design.lengths,
+            np.ascontiguousarray(p, dtype=float),
+            np.ascontiguousarray(e, dtype=float),
+        )
+    )
 
 
 #: With ``current``, a direction within this angle (rad) of straight up/down is reached with

@@ -194,23 +194,29 @@ def follow_configuration(
     Distance is Euclidean in joint space (rad). Along each range the joint angles are a
     smooth function of u: the distance is sampled at ``_FOLLOW_SAMPLES`` points (a hair
     inside the ends) and the best sample refined by golden-section search between its
-    neighbours; the range midpoints ``solutions`` are candidates too. Only configurations
-    passing ``is_valid`` are returned.
+    neighbours; the range midpoints ``solutions`` and the ranges' exact ends (a joint at
+    its limit, where a range that ``current`` rode to its end stops) are candidates too.
+    Only configurations passing ``is_valid`` are returned.
     """
     best = solutions[nearest_solution(solutions, current)]
     best_dist = float(np.sum((best - current) ** 2))
     a = design.lengths
     current = np.ascontiguousarray(current, dtype=float)
-    candidates = np.empty((2, 6))
-    for br, (lo, hi) in zip(branches, intervals, strict=True):
+    n = len(branches)
+    candidates = np.empty((4 * n, 6))
+    dists = np.empty(4 * n)
+    for i, (br, (lo, hi)) in enumerate(zip(branches, intervals, strict=True)):
         dx, dy = _line_direction(p, e, br[0], azimuth)
-        dists = K.nearest_along_u(
+        dists[4 * i : 4 * i + 4] = K.nearest_along_u(
             p, e, dx, dy, lo, hi, float(br[1]), float(br[2]), a, current,
-            _FOLLOW_SAMPLES, _FOLLOW_REFINE, candidates,
+            _FOLLOW_SAMPLES, _FOLLOW_REFINE, candidates[4 * i : 4 * i + 4],
         )  # fmt: skip
-        for q, dist in zip(candidates, dists, strict=True):
-            if dist < best_dist and is_valid(design, q):
-                best, best_dist = q.copy(), dist
+    # the midpoint is valid: only nearer candidates are checked, all in one batched call
+    near = np.flatnonzero(dists < best_dist)
+    if len(near):
+        near = near[is_valid(design, candidates[near])]
+    if len(near):
+        best = candidates[near[np.argmin(dists[near])]].copy()
     return best
 
 

@@ -47,6 +47,15 @@ class IKResult:
         clamped towards the present one). It moves little when the target moves little,
         which makes it the output to send in a handheld control loop. None without
         ``current`` or without solutions.
+    follow_distance : float or None
+        With ``follow``: its joint-space distance from ``current`` (rad, Euclidean).
+    family_ended : bool
+        With ``follow``: True when the range ``current`` lay on does not continue to this
+        target (a joint limit reached, two links met, the target out of its reach), so
+        ``follow`` had to jump to another range: it moved more than ``FAMILY_END_RATIO``
+        (10) times the least joint motion that reaches the target's pose from ``current``
+        (to first order, ``handarm.ik.api.least_joint_motion``). A loop that sees it
+        should slow down or ask before sending ``follow``.
     clearances : ndarray, shape (k, 2) or None
         With a scene (``solve(..., scene=...)``): the smallest and largest clearance (m)
         between the printed links and the obstacles, sampled at 65 points of each range.
@@ -72,6 +81,8 @@ class IKResult:
     achieved_position: np.ndarray | None = None
     achieved_direction: np.ndarray | None = None
     follow: np.ndarray | None = None
+    follow_distance: float | None = None
+    family_ended: bool = False
     clearances: np.ndarray | None = None
     clearest: np.ndarray | None = None
     blocked_by: tuple[str, ...] = ()
@@ -112,6 +123,8 @@ class IKResult:
                 for q, br, iv in zip(self.solutions, self.branches, self.intervals, strict=True)
             ],
             "follow_deg": None if self.follow is None else np.degrees(self.follow).tolist(),
+            "follow_distance_rad": self.follow_distance,
+            "family_ended": bool(self.family_ended),
         } | self._scene_dict()
 
     def _scene_dict(self) -> dict:
