@@ -136,17 +136,24 @@ def main(argv=None) -> None:
         f"largest {n[:, 1].max():.2f}x; flagged family_ended: {noise_flagged}"
     )
     lv, ls, lf = leaving
+    ls, lf = np.array(ls), np.array(lf, bool)
     print(
         f"leaving the workspace ({args.targets} straight paths, 2 mm steps): levels met "
         f"{dict(sorted(lv.items(), reverse=True))}; step (deg, largest joint) median "
-        f"{np.median(ls):.3f}, largest {np.max(ls):.2f}; flagged family_ended: {lf}"
+        f"{np.median(ls):.3f}, largest {np.max(ls):.2f}; flagged family_ended: {lf.sum()}"
     )
+    for lim in (20.0, 45.0):
+        over = ls > lim
+        print(
+            f"  steps > {lim:g} deg: {over.sum()}, flagged {np.sum(over & lf)}; "
+            f"largest unflagged {np.max(ls[~lf]):.2f} deg"
+        )
 
 
 def leaving_paths(design, rng, n: int):
     """Straight paths from a held pose out past the reach: levels, steps (deg), flags."""
     reach = float(np.sum(design.lengths))
-    levels, steps, flagged = {}, [], 0
+    levels, steps, flagged = {}, [], []
     for _ in range(n):
         while True:
             q = rng.uniform(design.lower, design.upper)
@@ -161,7 +168,7 @@ def leaving_paths(design, rng, n: int):
             if r.follow is None:  # nothing to follow: the loop keeps its pose
                 continue
             steps.append(float(np.degrees(np.abs(r.follow - current).max())))
-            flagged += r.family_ended
+            flagged.append(r.family_ended)
             current = r.follow
     return levels, steps, flagged
 

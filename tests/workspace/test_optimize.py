@@ -83,7 +83,7 @@ def test_search_starts_from_the_corners_and_a_latin_hypercube(opt_file, tmp_path
     """NSGA-II's first generation is space-filling, holds the box's corners, and is what runs."""
     from handarm.workspace.optimize import first_generation
 
-    opt_file.write_text("population = 12\n" + OPT)
+    opt_file.write_text('sampler = "nsga2"\npopulation = 12\n' + OPT)
     opt = load_opt(opt_file)
     gen = first_generation(opt, 12)
     assert gen == first_generation(opt, 12)  # reproducible from the file's seed

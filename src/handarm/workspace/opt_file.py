@@ -4,7 +4,7 @@ An optimization file (TOML)::
 
     name = "neighbourhood"
     design = "arm.toml"            # optional, relative to this file; default: the paper's arm
-    sampler = "nsga2"              # nsga2 | tpe | gp | grid (the --sampler option overrides)
+    sampler = "tpe"                # tpe | nsga2 | gp | grid (the --sampler option overrides)
     population = 20                # NSGA-II's generation size (keep it across resumed runs)
     trials = 40                    # total finished trials wanted (--trials overrides)
     seed = 0
@@ -317,7 +317,7 @@ def load_opt(path: str | os.PathLike[str]) -> OptFile:
         if not isinstance(data["design"], str):
             raise ValueError(f"{path}: design: expected a file name, got {data['design']!r}")
         base = ArmDesign.from_toml((path.parent / data["design"]).resolve())
-    sampler = data.get("sampler", "nsga2")
+    sampler = data.get("sampler", "tpe")
     if sampler not in _SAMPLERS:
         raise ValueError(f"{path}: sampler: expected one of {list(_SAMPLERS)}, got {sampler!r}")
     constraints, poses = _constraints(path, data.get("constraints", {}))
