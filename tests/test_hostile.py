@@ -450,6 +450,29 @@ sys.exit(cli.main(["build", "--out", sys.argv[1]]))
 """
 
 
+_CTRL_C_TURNED_INTO_AN_ERROR = """
+import os, signal, sys, time
+from handarm import cli
+from handarm.cli import build
+
+def command(args):
+    try:  # as numba does when Ctrl-C lands mid-compile: the interrupt becomes its own error
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(2)
+    except KeyboardInterrupt:
+        pass
+    raise RuntimeError("no compiled object yet for <Library 'segment_distance'>")
+
+build.cmd_build = command
+sys.exit(cli.main(["build", "--out", sys.argv[1]]))
+"""
+
+
+def test_an_error_a_library_makes_of_ctrl_c_is_reported_as_the_interrupt(tmp_path):
+    """Seen in CI: Ctrl-C 15 s into a fresh build cut numba's compile; exit was 3, not 130."""
+    _assert_one_line_and_130(_run_script(tmp_path, _CTRL_C_TURNED_INTO_AN_ERROR))
+
+
 def test_ctrl_c_inside_a_callback_python_ignores_still_ends_the_command(tmp_path):
     """Ctrl-C landing in a weakref callback (seen in CI during a build): one line, exit 130."""
     _assert_one_line_and_130(_run_script(tmp_path, _CTRL_C_IN_A_CALLBACK))

@@ -150,23 +150,35 @@ def main(argv: list[str] | None = None) -> int:
         interrupts.check()  # a library that swallowed Ctrl-C does not make it a success
         return status
     except KeyboardInterrupt:
-        interrupts.reported = True
-        print(f"{name}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except (UsageError, ValueError, OSError) as exc:
-        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_USAGE
-    except MemoryError:
-        print(f"{name}: error: out of memory; ask for a smaller job", file=sys.stderr)
-        return EXIT_REFUSED
-    except RuntimeError as exc:  # a solver, the planner, the arm's state or the bus said no
-        status = getattr(exc, "exit_status", EXIT_REFUSED)
-        exc = option_error(exc, _RUNTIME_OPTIONS)
-        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
-        return status
+        return _interrupted(interrupts, name)
+    except Exception as exc:
+        if interrupts.seen:  # a library turned the Ctrl-C into an error of its own (numba
+            return _interrupted(interrupts, name)  # cut mid-compile: "no compiled object")
+        return _failure(name, exc)
     finally:
         signal.signal(signal.SIGINT, previous)
         sys.unraisablehook = interrupts.previous_hook
+
+
+def _interrupted(interrupts: _Interrupts, name: str) -> int:
+    interrupts.reported = True
+    print(f"{name}: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
+
+
+def _failure(name: str, exc: Exception) -> int:
+    """One line and the exit status for a refused command; anything else is a bug: raised."""
+    if isinstance(exc, (UsageError, ValueError, OSError)):
+        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    if isinstance(exc, MemoryError):
+        print(f"{name}: error: out of memory; ask for a smaller job", file=sys.stderr)
+        return EXIT_REFUSED
+    if isinstance(exc, RuntimeError):  # a solver, the planner, the arm's state or the bus
+        status = getattr(exc, "exit_status", EXIT_REFUSED)
+        print(f"{name}: error: {_one_line(option_error(exc, _RUNTIME_OPTIONS))}", file=sys.stderr)
+        return status
+    raise exc
 
 
 def _one_line(exc: BaseException) -> str:
