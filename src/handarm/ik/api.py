@@ -100,7 +100,7 @@ def solve(
 
 #: ``follow`` moving more than this many times the least joint motion that reaches the
 #: target's pose from ``current`` (to first order) means the range ``current`` lay on has
-#: ended. Measured (benchmarks/bench_tracking.py): 1e-6 noise moves follow at most 3.5x that
+#: ended. Measured (benchmarks/bench_tracking.py): 1e-6 noise moves follow at most 3.7x that
 #: motion, 2 mm path steps at most 3.5x (99th percentile 1.5x), jumps near singular poses
 #: included; a range that ends at a joint limit or where two links meet costs far more.
 FAMILY_END_RATIO = 10.0
