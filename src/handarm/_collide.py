@@ -17,7 +17,8 @@ motion (``handarm.ik._printed``). A bounding sphere per piece answers far pairs 
 Data (see ``handarm.collision.Envelopes``), passed as separate arrays because numba passes a
 tuple of arrays by value with a reference count per member, which dominated the cost:
 
-* ``pi`` (n, 3) int: link, frame (0 proximal, 1 distal), plane (0 base, 1 tip);
+* ``pi`` (n, 4) int: link, frame (0 proximal, 1 distal), plane (0 base, 1 tip), and 1 if
+  the piece slides along its own segment when l3 slides along L (``handarm.collision``);
 * ``pf`` (n, 8) float: segment x0, y0, x1, y1 in the frame, radius, slab z0, z1, and the
   radius of the bounding sphere;
 * ``groups`` (g, 4), ``rows`` (m, 2), ``lp_groups`` (15, 2): which piece pairs to test;
@@ -39,8 +40,9 @@ JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 #: holds L's direction and the origin F of sigma.
 N_FRAMES = 14
 #: Columns of a placed piece: segment ends in its plane (4), bounding-sphere centre (3), how
-#: far it can move (1).
-PLACED = 8
+#: far it can move (1), how far it slides along its own segment and the unit direction of
+#: that slide (3).
+PLACED = 11
 
 
 @nb.njit(**JIT)
@@ -307,17 +309,51 @@ def cover_search(along, across):
 
 
 @nb.njit(**JIT)
-def _contact(xy, pi, pf, i, j, gi, gj, dx, dy, fx, fy, c):
-    """Whether placed pieces i, j are in contact, radii grown by gi, gj (< 0 shrinks).
+def _swept(xy, pf, i, sgn):
+    """Segment ends and radius of placed piece i over its motion: sgn 1 grown, -1 shrunk.
 
-    The model's two tests: bounding spheres that overlap and pieces that meet.
+    Grown: the piece wherever it can be (a superset of every position); shrunk: inside the
+    piece at every position. A piece that moves at most ``xy[i, 7]`` grows or shrinks its
+    radius by that. A piece that slides along its own segment by at most ``e = xy[i, 8]``
+    (l3 along L) sweeps exactly its segment lengthened by e at both ends; every position of
+    it holds the segment shortened by e at both ends, or, when the segment is shorter than
+    2 e, the disc at its middle with the radius shrunk by e minus half the length.
     """
+    x0, y0, x1, y1 = xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3]
+    r = pf[i, 4] + sgn * xy[i, 7]
+    e = xy[i, 8]
+    if e > 0.0:
+        ux, uy = xy[i, 9], xy[i, 10]  # from end 0 towards end 1
+        if sgn > 0.0:
+            x0, y0, x1, y1 = x0 - e * ux, y0 - e * uy, x1 + e * ux, y1 + e * uy
+        else:
+            half = 0.5 * math.hypot(x1 - x0, y1 - y0)
+            if half >= e:
+                x0, y0, x1, y1 = x0 + e * ux, y0 + e * uy, x1 - e * ux, y1 - e * uy
+            else:
+                mx, my = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+                x0, y0, x1, y1 = mx, my, mx, my
+                r -= e - half
+    return x0, y0, x1, y1, r
+
+
+@nb.njit(**JIT)
+def _contact(xy, pi, pf, i, j, sgn, dx, dy, fx, fy, c):
+    """Whether placed pieces i, j are in contact, grown (sgn 1) or shrunk (-1) by their motion.
+
+    The model's two tests: bounding spheres that overlap and pieces that meet (see
+    ``_swept``; a bounding sphere moves with its piece, by at most grow + slide).
+    """
+    gi = sgn * (xy[i, 7] + xy[i, 8])
+    gj = sgn * (xy[j, 7] + xy[j, 8])
     if _apart(xy[i, 4], xy[i, 5], xy[i, 6], pf[i, 7] + gi,
               xy[j, 4], xy[j, 5], xy[j, 6], pf[j, 7] + gj + c):  # fmt: skip
         return False
+    ax0, ay0, ax1, ay1, ra = _swept(xy, pf, i, sgn)
+    bx0, by0, bx1, by1, rb = _swept(xy, pf, j, sgn)
     return _collide_placed(
-        xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3], pf[i, 4] + gi, pf[i, 5], pf[i, 6], pi[i, 2],
-        xy[j, 0], xy[j, 1], xy[j, 2], xy[j, 3], pf[j, 4] + gj, pf[j, 5], pf[j, 6], pi[j, 2],
+        ax0, ay0, ax1, ay1, ra, pf[i, 5], pf[i, 6], pi[i, 2],
+        bx0, by0, bx1, by1, rb, pf[j, 5], pf[j, 6], pi[j, 2],
         dx, dy, fx, fy, c,
     )  # fmt: skip
 
@@ -328,9 +364,11 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
 
     A piece moves at most ``grow = min(coef[i, 0] @ motion, coef[i, 1] @ motion)`` (see
     ``handarm.collision.motion_coefficients``; ``motion`` is None-like when ``motion[0] < 0``:
-    nothing moves). Returns (hit, unsure): ``hit`` when some pair, and its group's bounding
-    pair, are in contact (``_contact``) with their pieces shrunk by ``grow`` (so the model
-    finds contact wherever the pieces are within ``grow`` of where they are placed), else
+    nothing moves; l3's pieces along L slide instead, see ``_swept``). Returns (hit, unsure):
+    ``hit`` when some pair, and its group's bounding pair, are in contact (``_contact``)
+    with their pieces shrunk by ``grow`` (so the model finds contact wherever the pieces
+    are within ``grow`` of where they are placed; the bounding pieces hold the pair's, so
+    only their spheres are tested again), else
     ``unsure``, the mask of groups where some pair is in contact with its pieces grown but not
     shrunk; the other groups are free. With nothing moving this is the model
     itself. One function for every group: numba counts a reference for every array
@@ -363,29 +401,43 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                     )  # fmt: skip
                     xy[k, 0], xy[k, 1], xy[k, 2], xy[k, 3] = x0, y0, x1, y1
                     xy[k, 4], xy[k, 5], xy[k, 6] = cx, cy, cz
-                    grow = 0.0
-                    if moving:
+                    grow, slide = 0.0, 0.0
+                    if moving and pi[k, 3] == 1:
+                        # l3 moves by sliding along L, here along the segment: exactly
+                        slide = m0
+                        ux, uy = frames[slot, 0], frames[slot, 1]
+                        if pf[k, 2] < pf[k, 0]:
+                            ux, uy = -ux, -uy
+                        xy[k, 9], xy[k, 10] = ux, uy
+                    elif moving:
                         g0 = coef[k, 0, 0] * m0 + coef[k, 0, 1] * m1 + coef[k, 0, 2] * m2
                         g0 += coef[k, 0, 3] * m3 + coef[k, 0, 4] * m4
                         g1 = coef[k, 1, 0] * m0 + coef[k, 1, 1] * m1 + coef[k, 1, 2] * m2
                         g1 += coef[k, 1, 3] * m3 + coef[k, 1, 4] * m4
                         grow = min(g0, g1)
                     xy[k, 7] = grow
-            gi, gj = xy[i, 7], xy[j, 7]
-            if not _contact(xy, pi, pf, i, j, gi, gj, dx, dy, fx, fy, c):
+                    xy[k, 8] = slide
+            if not _contact(xy, pi, pf, i, j, 1.0, dx, dy, fx, fy, c):
                 if r == first:
                     break
                 continue
             if r == first and not single:
                 continue  # the bounding pieces meet: look at the pieces
-            if (gi == 0.0 and gj == 0.0) or _contact(xy, pi, pf, i, j, -gi, -gj, dx, dy, fx, fy, c):
-                # contact all along, if the group's bounding pieces (the model tests them
-                # first) are also in contact all along
+            still = xy[i, 7] + xy[i, 8] == 0.0 and xy[j, 7] + xy[j, 8] == 0.0
+            if still or _contact(xy, pi, pf, i, j, -1.0, dx, dy, fx, fy, c):
+                # contact all along, if the group's bounding pair (the model tests it first)
+                # is in contact all along. Its pieces hold these two wherever they are, and
+                # the pieces' test grows with the pieces, so its pieces meet all along: what
+                # is left is its bounding spheres, shrunk by their motion. (Shrinking the
+                # bounding pieces too never proved a contact held all along at a joint on a
+                # bounding piece's segment, l1's hub on joint 1 say, whose piece turns:
+                # stretches were halved down to TOL over a whole range.)
                 bi, bj = groups[g, 0], groups[g, 1]
-                gbi, gbj = xy[bi, 7], xy[bj, 7]
+                gbi, gbj = xy[bi, 7] + xy[bi, 8], xy[bj, 7] + xy[bj, 8]
                 if single or (gbi == 0.0 and gbj == 0.0):
                     return True, 0
-                if _contact(xy, pi, pf, bi, bj, -gbi, -gbj, dx, dy, fx, fy, c):
+                if not _apart(xy[bi, 4], xy[bi, 5], xy[bi, 6], pf[bi, 7] - gbi,
+                              xy[bj, 4], xy[bj, 5], xy[bj, 6], pf[bj, 7] - gbj + c):  # fmt: skip
                     return True, 0
             unsure |= 1 << g
     return False, unsure

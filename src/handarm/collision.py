@@ -130,8 +130,8 @@ class Envelopes:
     clearance : float
         The design's clearance (m), added to every test.
     pi, pf : ndarray
-        The same packed for the kernels: (n, 3) link, frame, plane; (n, 8) segment, radius,
-        z, sphere radius.
+        The same packed for the kernels: (n, 4) link, frame, plane, slides along its segment
+        (an l3 piece along L); (n, 8) segment, radius, z, sphere radius.
     """
 
     pieces: tuple[Piece, ...]
@@ -312,7 +312,10 @@ def envelopes(design: ArmDesign) -> Envelopes:
         raise ValueError(f"design: {len(groups)} groups of envelope pieces, at most 63 supported")
     for arr in arrays:
         arr.flags.writeable = False
-    pi = np.ascontiguousarray(np.stack([link, frame, plane], axis=1))
+    # l3 only slides along L, its frames' x axis: a piece whose segment runs along x sweeps
+    # exactly its segment lengthened by the slide (``handarm._collide._swept``)
+    slides = (link == 3) & (np.abs(seg[:, 3] - seg[:, 1]) <= 1e-12)
+    pi = np.ascontiguousarray(np.stack([link, frame, plane, slides.astype(np.int64)], axis=1))
     pf = np.ascontiguousarray(np.column_stack([seg, radius, z, sphere]))
     for arr in (pi, pf):
         arr.flags.writeable = False

@@ -9,10 +9,13 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from tests.ik.conftest import random_design, valid_configurations
 
 import handarm
 from handarm import ik
+from handarm._collide import PLACED, _swept
 from handarm.collision import collision_free
 from handarm.ik import _printed as PR
 from handarm.ik import _solve as S
@@ -94,3 +97,71 @@ def test_stretch_claims_hold_at_every_sample(seed):
                 hit, free = _check(design, p, e, tuple(branch), ua, ua + width, limits.azimuth)
                 counts["hit" if hit else "free" if free else "unsure"] += 1
     assert min(counts.values()) >= 20, counts  # every kind of claim was put to the test
+
+
+def test_a_contact_held_all_along_at_l1s_joint_is_decided_on_a_wide_stretch():
+    """A direction on the edge of the solvable set: l1's hub touches l3 all along the range.
+
+    Degradation bisects directions to where solutions end; here the end is l1's hub (a
+    disc on joint 1, which turning does not move) touching l3, which slides along L, by less
+    than 1e-10 m over 55 mm of u. The kernel demanded that the group's bounding pieces be in
+    contact all along too, shrunk by their own motion (l1's bounding piece turns about
+    joint 1), which held only on stretches narrower than TOL: one ``count_solutions`` took
+    six minutes. The bounding pieces hold the pair's pieces, so only their spheres are
+    tested again; the claim over the whole range is checked against ``is_valid`` here.
+    """
+    design = handarm.ArmDesign()
+    p = np.array([-0.10351231627560778, -0.08873657720919487, -0.01257884682347245])
+    e = np.array([-0.8569285834176997, -0.5056398116014333, -0.10000891882927904])
+    e = e / np.linalg.norm(e)
+    limits = ik.solve(design.replace(collision_model="paper"), p, e, degrade=False)
+    branch = (1, -1, -1)
+    (lo, hi), *_ = limits.intervals[np.all(limits.branches == branch, axis=1)]
+    assert hi - lo > 0.05
+    mid = 0.5 * (lo + hi)  # 10 mm in the middle (the ends near the reach move fast)
+    hit, _ = _check(design, p, e, branch, mid - 0.005, mid + 0.005, limits.azimuth, n=400)
+    assert hit
+    assert ik.count_solutions(design, p[None], e[None])[0] == 0
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    x0=st.floats(-0.03, 0.03),
+    length=st.floats(0.0, 0.03),
+    r=st.floats(0.002, 0.01),
+    e=st.floats(0.0, 0.02),
+    t=st.floats(-1.0, 1.0),
+    angle=st.floats(-math.pi, math.pi),
+    point=st.tuples(st.floats(-0.06, 0.06), st.floats(-0.03, 0.03)),
+)
+def test_a_sliding_piece_sweeps_its_lengthened_segment_and_holds_its_shortened_one(
+    x0, length, r, e, t, angle, point
+):
+    """``_swept`` of an l3 piece sliding by at most e along its segment, against geometry.
+
+    A point within r of the piece slid by t * e lies inside the grown piece; a point inside
+    the shrunk piece lies within r of the piece wherever it slides.
+    """
+    c, s = math.cos(angle), math.sin(angle)
+    xy = np.zeros((1, PLACED))
+    xy[0, :4] = x0 * c, x0 * s, (x0 + length) * c, (x0 + length) * s
+    xy[0, 8:11] = e, c, s
+    pf = np.zeros((1, 8))
+    pf[0, 4] = r
+    a = np.array(xy[0, :2])
+    b = np.array(xy[0, 2:4])
+    u = np.array([c, s])
+    pt = np.array(point)
+
+    def dist(a, b, p):
+        ab = b - a
+        den = float(ab @ ab)
+        k = 0.0 if den == 0.0 else min(1.0, max(0.0, float((p - a) @ ab) / den))
+        return float(np.linalg.norm(p - a - k * ab))
+
+    gx0, gy0, gx1, gy1, gr = _swept(xy, pf, 0, 1.0)
+    if dist(a + t * e * u, b + t * e * u, pt) <= r:
+        assert dist(np.array([gx0, gy0]), np.array([gx1, gy1]), pt) <= gr + 1e-12
+    sx0, sy0, sx1, sy1, sr = _swept(xy, pf, 0, -1.0)
+    if dist(np.array([sx0, sy0]), np.array([sx1, sy1]), pt) <= sr:
+        assert dist(a + t * e * u, b + t * e * u, pt) <= r + 1e-12
