@@ -500,4 +500,4 @@ _COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardle
 #: ``count_many`` on the calling thread, for batches of one block: they gain nothing from the
 #: thread pool, whose wake-up costs milliseconds on a busy machine (degradation counts a
 #: direction or a few at a time, hundreds of times per target).
-count_many_serial = nb.njit(**JIT)(count_many.py_func)
+count_many_serial = nb.njit(**JIT)(getattr(count_many, "py_func", count_many))

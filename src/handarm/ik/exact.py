@@ -146,9 +146,58 @@ def _order(solutions, branches, intervals, current):
     return solutions[idx], branches[idx], intervals[idx]
 
 
+def _vector(value, size: int):
+    """The (float array, its floats) of ``value`` when it is ``size`` finite numbers, else None."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    if arr.shape != (size,):
+        return None
+    xs = arr.tolist()
+    if not all(map(math.isfinite, xs)):
+        return None
+    return arr, xs
+
+
+def _check_one(design: ArmDesign, p, e, current):
+    """check_inputs for the common case, in scalar arithmetic (a control loop calls it).
+
+    The same numbers as ``check_target`` and ``check_scale`` (the same operations in the
+    same order); None when an input is not plain finite numbers of the right size, for the
+    general checks to name the fault.
+    """
+    pv, ev = _vector(p, 3), _vector(e, 3)
+    cv = None if current is None else _vector(current, 6)
+    if pv is None or ev is None or (current is not None and cv is None):
+        return None
+    x, y, z = ev[1]
+    big = max(abs(x), abs(y), abs(z))
+    if big == 0.0:
+        raise ValueError("e: direction has zero length")
+    x, y, z = x / big, y / big, z / big
+    n = math.sqrt(x * x + y * y + z * z)
+    e = np.array([x / n, y / n, z / n])
+    px, py, pz = pv[1]
+    big = max(abs(px), abs(py), abs(pz))
+    if big > 0.0:
+        reach = float(np.sum(design.lengths))
+        dist = big / max(reach, 1e-300) * math.hypot(px / big, py / big, pz / big)
+        if dist > REACH_FACTOR:
+            check_scale(design, pv[0])  # raises, with the message
+    if cv is not None:
+        if max(map(abs, cv[1])) > MAX_JOINT_ANGLE:
+            check_current(cv[0])  # raises, with the message
+        current = cv[0]
+    return pv[0], e, current
+
+
 def check_inputs(design, p, e, current):
     """Checked (p, e, current) of one target; ValueError naming the argument."""
     check_design(design)
+    fast = _check_one(design, p, e, current)
+    if fast is not None:
+        return fast
     p, e = check_target(p, e)
     if p.shape != (3,):
         raise ValueError(f"p: expected shape (3,), got {p.shape}")
