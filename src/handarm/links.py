@@ -205,30 +205,80 @@ def joint_geometry(design: ArmDesign, j: int) -> JointGeometry:
     )
 
 
-def _fork(g: JointGeometry, frame: str, length: float, clear: float) -> list[Part]:
+def _fork(
+    g: JointGeometry, frame: str, length: float, clear: float, extra: tuple[float, float]
+) -> list[Part]:
     """Cheeks and the bridge joining them, in the joint's frame; the link lies towards -x.
 
     The gap between the cheeks stays open out to ``clear`` (the tongue's radius plus
     margins): the bridge starts beyond it, so nothing of this link turns through the
-    neighbour's tongue.
+    neighbour's tongue. ``extra`` (mm, + plate and - plate) thickens a plate outwards where
+    a cable corridor cuts into it from the gap (``_plate_extra``).
     """
     lo, hi = g.gap_lo, g.gap_hi
     cheek = (g.fork_width - g.gap) / 2
+    top, bottom = hi + cheek + extra[0], lo - cheek - extra[1]
     hub = _circle(g.hub_radius)
     plate = _box(-length, 0.0, -g.hub_radius, g.hub_radius)
     return [
         Part(f"fork cheek + at joint {g.joint}", frame, hub, hi, hi + cheek, axisymmetric=True),
         Part(f"fork cheek - at joint {g.joint}", frame, hub, lo - cheek, lo, axisymmetric=True),
-        Part(f"fork plate + at joint {g.joint}", frame, plate, hi, hi + cheek),
-        Part(f"fork plate - at joint {g.joint}", frame, plate, lo - cheek, lo),
+        Part(f"fork plate + at joint {g.joint}", frame, plate, hi, top),
+        Part(f"fork plate - at joint {g.joint}", frame, plate, bottom, lo),
         Part(
             f"fork bridge at joint {g.joint}",
             frame,
             _box(-length, -clear, -g.hub_radius, g.hub_radius),
-            lo - cheek,
-            hi + cheek,
+            bottom,
+            top,
         ),
     ]
+
+
+#: Margin (mm) kept beyond ``min_wall`` where a plate is thickened: the corridor is cut as a
+#: polygon round its circle, and the wall is measured on the written mesh.
+_WALL_MARGIN = 0.1
+
+
+def _plate_extra(
+    design: ArmDesign, k: int, g: JointGeometry, length: float, to_dist: np.ndarray | None
+) -> tuple[float, float]:
+    """How much (mm) link k's fork plates at its distal joint grow outwards for ``min_wall``.
+
+    Cable runs climb from one joint's idler stack to the next one's, so a corridor (the run
+    grown by the cable radius plus the clearance) can cut into a fork plate from the gap
+    side, where the plate overlaps the run's stretch of x. The plate keeps ``min_wall`` (plus
+    a margin) beyond the deepest cut by growing away from the gap; carving then removes
+    whatever of it a neighbour sweeps. Exact for straight runs: z along a run is linear in x,
+    so the deepest cut over the plate's stretch is at an end of it.
+    """
+    radius = design.cable_diameter * MM / 2 + design.clearance * MM
+    cheek = (g.fork_width - g.gap) / 2
+    wall = design.min_wall * MM + _WALL_MARGIN
+    inv = np.eye(4) if to_dist is None else np.linalg.inv(to_dist)
+    need_hi, need_lo = 0.0, 0.0
+    for st in strands_in_link(design, k):
+        a = (inv @ np.array([*st.start, 1.0]))[:3]
+        b = (inv @ np.array([*st.end, 1.0]))[:3]
+        d = b - a
+        # the part of the run over the plate's stretch of x, -length .. 0
+        if abs(d[0]) < 1e-12:
+            if not -length <= a[0] <= 0.0:
+                continue
+            ts = [0.0, 1.0]
+        else:
+            t0, t1 = sorted(((-length - a[0]) / d[0], (0.0 - a[0]) / d[0]))
+            t0, t1 = max(t0, 0.0), min(t1, 1.0)
+            if t0 > t1:
+                continue
+            ts = [t0, t1]
+        for t in ts:
+            x, y, z = a + t * d
+            if abs(y) > g.hub_radius + radius:
+                continue  # beside the plate
+            need_hi = max(need_hi, z + radius + wall - (g.gap_hi + cheek))
+            need_lo = max(need_lo, (g.gap_lo - cheek) - (z - radius - wall))
+    return need_hi, need_lo
 
 
 #: Forks are sized so that the paper's largest limit (150 degrees) carves cleanly; a larger
@@ -432,7 +482,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
         g = joint_geometry(design, 1)
         z0, z1 = g.gap_lo - (g.fork_width - g.gap) / 2, g.gap_hi + (g.fork_width - g.gap) / 2
         _, clear = _fork_sizes(design, g, a)
-        parts += _fork(g, "dist", length=a, clear=clear)
+        parts += _fork(g, "dist", length=a, clear=clear, extra=_plate_extra(design, 0, g, a, None))
         parts.append(Part("handle", "dist", _box(-a, -clear, -bw, bw), z0, z1))
         plate = EXIT_PLATE
         parts.append(
@@ -458,6 +508,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     length, clear = _fork_sizes(design, g_dist, a)
     dist = _dist_transform(design, k)
     parts.append(Part("beam", "prox", _box(0.0, a - clear, -bw, bw), -t, t))
-    parts += _fork(g_dist, "dist", length=length, clear=clear)
+    extra = _plate_extra(design, k, g_dist, length, dist)
+    parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra)
     holes.append(_axle(g_dist, "dist"))
     return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k))
