@@ -248,9 +248,10 @@ def _plate_extra(
     Cable runs climb from one joint's idler stack to the next one's, so a corridor (the run
     grown by the cable radius plus the clearance) can cut into a fork plate from the gap
     side, where the plate overlaps the run's stretch of x. The plate keeps ``min_wall`` (plus
-    a margin) beyond the deepest cut by growing away from the gap; carving then removes
-    whatever of it a neighbour sweeps. Exact for straight runs: z along a run is linear in x,
-    so the deepest cut over the plate's stretch is at an end of it.
+    a margin) beyond the deepest cut by growing away from the gap, but the + plate (the idler
+    side) no further than the proximal joint's gap allows less the clearance: beyond that the
+    proximal neighbour would lose a sliver to its sweep. Exact for straight runs: z along a run
+    is linear in x, so the deepest cut over the plate's stretch is at an end of it.
     """
     radius = design.cable_diameter * MM / 2 + design.clearance * MM
     cheek = (g.fork_width - g.gap) / 2
@@ -278,6 +279,10 @@ def _plate_extra(
                 continue  # beside the plate
             need_hi = max(need_hi, z + radius + wall - (g.gap_hi + cheek))
             need_lo = max(need_lo, (g.gap_lo - cheek) - (z - radius - wall))
+    if 1 <= k <= 5 and k != 3:  # the two joints' axles are parallel: one z along both
+        # 0.01 mm short of touching: carving grows and shifts its cuts by about 1e-4 mm
+        room = joint_geometry(design, k).gap_hi - g.clearance - 0.01 - (g.gap_hi + cheek)
+        need_hi = min(need_hi, max(room, 0.0))
     return need_hi, need_lo
 
 
