@@ -309,6 +309,12 @@ def cover_search(along, across):
 
 
 @nb.njit(**JIT)
+def _moves(xy, i):
+    """How far placed piece i (and its bounding sphere) can move: grow plus slide."""
+    return xy[i, 7] + xy[i, 8]
+
+
+@nb.njit(**JIT)
 def _swept(xy, pf, i, sgn):
     """Segment ends and radius of placed piece i over its motion: sgn 1 grown, -1 shrunk.
 
@@ -344,8 +350,8 @@ def _contact(xy, pi, pf, i, j, sgn, dx, dy, fx, fy, c):
     The model's two tests: bounding spheres that overlap and pieces that meet (see
     ``_swept``; a bounding sphere moves with its piece, by at most grow + slide).
     """
-    gi = sgn * (xy[i, 7] + xy[i, 8])
-    gj = sgn * (xy[j, 7] + xy[j, 8])
+    gi = sgn * _moves(xy, i)
+    gj = sgn * _moves(xy, j)
     if _apart(xy[i, 4], xy[i, 5], xy[i, 6], pf[i, 7] + gi,
               xy[j, 4], xy[j, 5], xy[j, 6], pf[j, 7] + gj + c):  # fmt: skip
         return False
@@ -423,7 +429,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                 continue
             if r == first and not single:
                 continue  # the bounding pieces meet: look at the pieces
-            still = xy[i, 7] + xy[i, 8] == 0.0 and xy[j, 7] + xy[j, 8] == 0.0
+            still = _moves(xy, i) == 0.0 and _moves(xy, j) == 0.0
             if still or _contact(xy, pi, pf, i, j, -1.0, dx, dy, fx, fy, c):
                 # contact all along, if the group's bounding pair (the model tests it first)
                 # is in contact all along. Its pieces hold these two wherever they are, and
@@ -433,7 +439,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                 # bounding piece's segment, l1's hub on joint 1 say, whose piece turns:
                 # stretches were halved down to TOL over a whole range.)
                 bi, bj = groups[g, 0], groups[g, 1]
-                gbi, gbj = xy[bi, 7] + xy[bi, 8], xy[bj, 7] + xy[bj, 8]
+                gbi, gbj = _moves(xy, bi), _moves(xy, bj)
                 if single or (gbi == 0.0 and gbj == 0.0):
                     return True, 0
                 if not _apart(xy[bi, 4], xy[bi, 5], xy[bi, 6], pf[bi, 7] - gbi,

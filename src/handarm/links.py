@@ -37,6 +37,7 @@ __all__ = [
     "link_blank",
     "strands_in_link",
     "anchor_angles",
+    "corridor_radius",
     "MM",
 ]
 
@@ -131,6 +132,11 @@ class JointGeometry:
 
     lane: float  # the two strands of the driving cable wrap the tongue at z = +-lane
 
+    @property
+    def cheek(self) -> float:
+        """Thickness (mm) of each fork cheek along the axle."""
+        return (self.fork_width - self.gap) / 2
+
     def slot_z(self, slot: int, side: int = 1) -> float:
         """Axle position (mm) of a strand on slot 0 (the tongue) or idler 1 .. ``idlers``.
 
@@ -164,6 +170,11 @@ class LinkBlank:
     def name(self) -> str:
         """Link name: l0 .. l6."""
         return f"l{self.index}"
+
+
+def corridor_radius(design: ArmDesign) -> float:
+    """Radius (mm) a cable run keeps clear round its centre line: cable radius + clearance."""
+    return design.cable_diameter * MM / 2 + design.clearance * MM
 
 
 def _circle(r: float, cx: float = 0.0, cy: float = 0.0, n: int = _CIRCLE_SEGMENTS) -> np.ndarray:
@@ -216,7 +227,7 @@ def _fork(
     a cable corridor cuts into it from the gap (``_plate_extra``).
     """
     lo, hi = g.gap_lo, g.gap_hi
-    cheek = (g.fork_width - g.gap) / 2
+    cheek = g.cheek
     top, bottom = hi + cheek + extra[0], lo - cheek - extra[1]
     hub = _circle(g.hub_radius)
     plate = _box(-length, 0.0, -g.hub_radius, g.hub_radius)
@@ -253,8 +264,8 @@ def _plate_extra(
     proximal neighbour would lose a sliver to its sweep. Exact for straight runs: z along a run
     is linear in x, so the deepest cut over the plate's stretch is at an end of it.
     """
-    radius = design.cable_diameter * MM / 2 + design.clearance * MM
-    cheek = (g.fork_width - g.gap) / 2
+    radius = corridor_radius(design)
+    cheek = g.cheek
     wall = design.min_wall * MM + _WALL_MARGIN
     inv = np.eye(4) if to_dist is None else np.linalg.inv(to_dist)
     need_hi, need_lo = 0.0, 0.0
@@ -444,7 +455,7 @@ def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
 
 def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
-    radius = design.cable_diameter * MM / 2 + design.clearance * MM
+    radius = corridor_radius(design)
     dist = _dist_transform(design, k)
     y = np.array([0.0, 1.0, 0.0])
     out_end = y if dist is None else dist[:3, 1]
@@ -485,7 +496,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     if k == 0:
         # the handle stub: base frame = joint 1's frame; cables leave through the end plate
         g = joint_geometry(design, 1)
-        z0, z1 = g.gap_lo - (g.fork_width - g.gap) / 2, g.gap_hi + (g.fork_width - g.gap) / 2
+        z0, z1 = g.gap_lo - g.cheek, g.gap_hi + g.cheek
         _, clear = _fork_sizes(design, g, a)
         parts += _fork(g, "dist", length=a, clear=clear, extra=_plate_extra(design, 0, g, a, None))
         parts.append(Part("handle", "dist", _box(-a, -clear, -bw, bw), z0, z1))

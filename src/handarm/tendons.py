@@ -22,7 +22,7 @@ import numpy as np
 
 from handarm._checks import check_design
 from handarm.design import ArmDesign
-from handarm.links import MM, anchor_angles, joint_geometry, strands_in_link
+from handarm.links import MM, anchor_angles, corridor_radius, joint_geometry, strands_in_link
 
 __all__ = [
     "CableLength",
@@ -160,7 +160,7 @@ def _runs(design: ArmDesign) -> list[tuple[int, int, int, np.ndarray, np.ndarray
     last ``sqrt((R + rc)^2 - r^2)`` (R the tongue's radius, r the pulley radius, rc the
     cable radius plus clearance): that is the pulley it wraps, not checked.
     """
-    rc = design.cable_diameter * MM / 2 + design.clearance * MM
+    rc = corridor_radius(design)
     out = []
     for k in range(6):
         for st in strands_in_link(design, k):
@@ -223,7 +223,7 @@ def tendon_report(
     check_design(design)
     carving = carving if carving is not None else carve(design)
     carved = [j.carved for j in carving.joints]
-    rc = design.cable_diameter * MM / 2 + design.clearance * MM
+    rc = corridor_radius(design)
     runs = _runs(design)
     cyls = [(k, c, s, _cylinder(a, b, rc, 32)) for k, c, s, a, b in runs]
     by_link = {
@@ -336,7 +336,7 @@ def cable_clear_limits(design: ArmDesign, carving, step_deg: float = 5.0) -> lis
     from handarm.carve.carving import _cylinder, _in_joint_frame
     from handarm.carve.sweep import _affine, frame_to_link
 
-    rc = design.cable_diameter * MM / 2 + design.clearance * MM
+    rc = corridor_radius(design)
     runs = _runs(design)
     out = []
     for j in range(1, 7):
