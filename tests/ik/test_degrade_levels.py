@@ -305,3 +305,19 @@ def test_straight_arm_is_an_exact_single_point(paper):
     np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-9)
     np.testing.assert_allclose(e2, np.broadcast_to(e, e2.shape), atol=1e-9)
     assert handarm.is_valid(paper, r.solutions).all()
+
+
+def test_the_searches_count_as_count_solutions_does(paper):
+    """Degradation counts its own directions without the input checks: same answers for
+    random (unnormalised) directions, vertical ones, and a point on joint 1's axis."""
+    from handarm.ik.degrade import _solvable
+
+    rng = np.random.default_rng(8)
+    q = valid_configurations(paper, rng, 12)
+    P = list(handarm.forward(paper, q)[0]) + [np.array([0.0, 0.0, 0.12])]
+    dirs = rng.normal(size=(60, 3))
+    dirs = np.concatenate([dirs, [[0, 0, 1.0], [0, 0, -1.0], [1e-13, 0, -1.0]]])
+    for p in P:
+        want = solvable(paper, p, dirs)
+        np.testing.assert_array_equal(_solvable(paper, p, dirs), want)
+    assert 0 < sum(solvable(paper, p, dirs).sum() for p in P) < len(P) * len(dirs)

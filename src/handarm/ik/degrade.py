@@ -21,7 +21,7 @@ more angle than the best level-3 one, since keeping pitch or yaw is a constraint
 reports level 4 when that direction happens to keep pitch or yaw.
 
 Searches over directions are exact at their final step: a grid finds the solvable region
-closest to e and bisection pins its boundary to 1e-9 rad; the level-3 search also starts
+closest to e and bisection pins its boundary to ``ANGLE_TOL``; the level-3 search also starts
 from directions of valid configurations that reach p (so small caps of solvable directions
 near the reach sphere are not missed) and slides along the boundary towards e.
 
@@ -53,8 +53,13 @@ __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction",
 ORDERS = ("paper", "angle")
 
 _FINE_STEP = math.radians(0.25)
-_NEAR = math.radians(12.0)
-_BISECT_TOL = 1e-9  # rad: bisection stops when the bracket is this narrow
+_BLOCK = 48  # grid angles (12 deg) per solvability call of the level-4 scan
+#: Directions are located to this angle (rad): bisections stop when their bracket is this
+#: narrow and pattern searches when their ring is. The levels promise 0.01 deg (1.7e-4 rad).
+#: Finer costs dearly where the boundary is a printed-link contact that the solvable ranges
+#: shrink to: the collision kernel needs about 1/sqrt(depth) stretches there, and a direction
+#: 1e-9 rad inside took 40-80 ms to count where 1e-6 rad takes a few.
+ANGLE_TOL = 1e-5
 #: A direction within this angle (rad) of straight up/down is moved off the pole along its
 #: circle, so that L's azimuth is the circle's and not the free one of a vertical e.
 _POLE = 1e-9
@@ -73,11 +78,13 @@ _SCENE: contextvars.ContextVar = contextvars.ContextVar("degrade_scene", default
 
 
 def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """Which of the unit directions ``dirs`` have an exact solution at p (p checked)."""
     dirs = np.atleast_2d(dirs)
     P = np.broadcast_to(p, dirs.shape).copy()
     scene = _SCENE.get()
     if scene is None:
-        return S.count_solutions(design, P, dirs) > 0
+        E = np.ascontiguousarray(dirs / np.linalg.norm(dirs, axis=1, keepdims=True))
+        return S.count_checked(design, P, E, S.vertical_azimuth(P)) > 0
     return S.count_solutions(design, P, dirs, scene=scene[0], clearance=scene[1]) > 0
 
 
@@ -108,9 +115,9 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
 
 
-def _bisect(test, good: float, bad: float) -> float:
+def _bisect(test, good: float, bad: float, tol: float = ANGLE_TOL) -> float:
     """The solvable end of [bad, good] nearest ``bad`` (``test(x)`` true at ``good``)."""
-    while abs(good - bad) > _BISECT_TOL:
+    while abs(good - bad) > tol:
         mid = 0.5 * (good + bad)
         if test(mid):
             good = mid
@@ -135,12 +142,16 @@ def closest_direction_on_circle(design, p, make_dir, theta0):
     list of float
         The nearest solvable angle on each side of theta0 (none if the circle is unsolvable):
         the first solvable grid angle going out, refined by bisection to the boundary
-        (1e-9 rad).
+        (``ANGLE_TOL``).
     """
     found = []
+    # the grid going out to pi in blocks of _BLOCK, each tested in one call: the first block
+    # holding a solvable angle ends the side (the rest of the circle is farther)
+    grid = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
+    blocks = np.split(grid, np.arange(_BLOCK, len(grid), _BLOCK))
     for side in (1.0, -1.0):
-        for lo, hi in ((_FINE_STEP, _NEAR), (_NEAR, math.pi)):
-            offs = side * np.arange(lo, hi + 1e-12, _FINE_STEP)
+        for offs in blocks:
+            offs = side * offs
             ok = _solvable(design, p, make_dir(theta0 + offs))
             if ok.any():
                 k = int(np.argmax(ok))
@@ -202,32 +213,48 @@ def closest_direction(design, p, e0, seeds=()):
             seed_starts.append(v)
     found = []
     for good in sphere_starts + seed_starts:
-        t = _bisect(lambda x, g=good: bool(_solvable(design, p, _slerp(e0, g, x))[0]), 1.0, 0.0)
+        arc = max(float(_angle(e0, good)), ANGLE_TOL)  # x is a fraction of it
+        t = _bisect(
+            lambda x, g=good: bool(_solvable(design, p, _slerp(e0, g, x))[0]),
+            1.0,
+            0.0,
+            ANGLE_TOL / arc,
+        )
         found.append(_pattern_search(design, p, e0, _slerp(e0, good, t)))
     found.sort(key=lambda v: float(_angle(v, e0)))
     return found
+
+
+def _tangents(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors that make a right-handed orthonormal frame with the unit vector v."""
+    x, y, z = float(v[0]), float(v[1]), float(v[2])
+    if abs(z) < 0.9:  # v x (0, 0, 1)
+        n = math.hypot(x, y)
+        t1 = (y / n, -x / n, 0.0)
+    else:  # v x (1, 0, 0)
+        n = math.hypot(y, z)
+        t1 = (0.0, z / n, -y / n)
+    t2 = (y * t1[2] - z * t1[1], z * t1[0] - x * t1[2], x * t1[1] - y * t1[0])
+    return np.array(t1), np.array(t2)
 
 
 def _pattern_search(design, p, e0, good):
     """Move a solvable direction towards e0 by rings of trial directions.
 
     The ring's radius doubles after a move (up to 2 degrees) and halves after a miss, down
-    to 1e-8 rad: sliding along a boundary that nears e0 slowly takes a few long moves, not
+    to ``ANGLE_TOL``: sliding along a boundary that nears e0 slowly takes a few long moves, not
     millions of short ones. At most ``_PATTERN_ROUNDS`` rings.
     """
     top = math.radians(2.0)
     step = top
     ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+    cos_ring, sin_ring = np.cos(ring)[:, None], np.sin(ring)[:, None]
     for _ in range(_PATTERN_ROUNDS):
-        if step <= 1e-8:
+        if step <= ANGLE_TOL:
             break
         a0 = float(_angle(good, e0))
-        t1 = np.cross(good, [0.0, 0.0, 1.0] if abs(good[2]) < 0.9 else [1.0, 0.0, 0.0])
-        t1 /= np.linalg.norm(t1)
-        t2 = np.cross(good, t1)
-        trial = math.cos(step) * good + math.sin(step) * (
-            np.cos(ring)[:, None] * t1 + np.sin(ring)[:, None] * t2
-        )
+        t1, t2 = _tangents(good)
+        trial = math.cos(step) * good + math.sin(step) * (cos_ring * t1 + sin_ring * t2)
         closer = _angle(trial, e0) < a0
         if closer.any():
             trial = trial[closer]
@@ -410,7 +437,13 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> lis
         k = min(40 * _SEEDS, len(dist) - 1)
         nearest = np.argpartition(dist, k)[:k]
         near = cloud_q[nearest[np.argsort(dist[nearest])]]
-        seeds.extend([q for q in near if _valid(design, q)][:_SEEDS])
+        picked = 0
+        for q in near:  # lazily: a validity test costs ~25 us
+            if picked == _SEEDS:
+                break
+            if _valid(design, q):
+                seeds.append(q)
+                picked += 1
     return seeds
 
 

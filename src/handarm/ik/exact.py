@@ -304,8 +304,12 @@ def _check_batch(design: ArmDesign, P, E):
     if P.ndim != 2 or E.ndim != 2 or P.shape != E.shape:
         raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {P.shape} and {E.shape}")
     check_scale(design, P, "P")
-    psi = np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
-    return P, E, psi
+    return P, E, vertical_azimuth(P)
+
+
+def vertical_azimuth(P: np.ndarray) -> np.ndarray:
+    """The azimuth (N,) that targets at points P (N, 3) use if their direction is vertical."""
+    return np.where(np.hypot(P[:, 0], P[:, 1]) < 1e-12, 0.0, np.arctan2(P[:, 1], P[:, 0]))
 
 
 def _check_chunk(chunk) -> None:
@@ -482,6 +486,19 @@ def count_solutions(
         ]
         return np.concatenate([np.zeros(0, np.int64), *parts])
     P, E, psi = _check_batch(design, P, E)
+    return count_checked(design, P, E, psi, min_width, chunk)
+
+
+def count_checked(
+    design: ArmDesign, P, E, psi, min_width: float = 0.0, chunk: int = 1 << 20
+) -> np.ndarray:
+    """``count_solutions`` of targets that are already checked.
+
+    ``P`` and ``E`` are float arrays (N, 3) of points within reach and unit directions,
+    ``psi`` (N,) the azimuth each uses if its direction is vertical. For callers that make
+    many small batches of their own targets: degradation counts a few directions at a time,
+    hundreds of times per target, and the checks cost more than the kernel there.
+    """
     model = _model(design, min_width)
     n = len(P)
     counts = np.zeros(n, np.int64)
