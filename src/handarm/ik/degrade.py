@@ -53,7 +53,8 @@ __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction",
 ORDERS = ("paper", "angle")
 
 _FINE_STEP = math.radians(0.25)
-_BLOCK = 48  # grid angles (12 deg) per solvability call of the level-4 scan
+#: Where the level-4 scan's blocks of grid angles end: 1, 2, 4, 8 deg, then 12 deg each.
+_BLOCK_ENDS = np.cumsum([4, 8, 16, 32] + [48] * 15)
 #: Directions are located to this angle (rad): bisections stop when their bracket is this
 #: narrow and pattern searches when their ring is. The levels promise 0.01 deg (1.7e-4 rad).
 #: Finer costs dearly where the boundary is a printed-link contact that the solvable ranges
@@ -145,10 +146,11 @@ def closest_direction_on_circle(design, p, make_dir, theta0):
         (``ANGLE_TOL``).
     """
     found = []
-    # the grid going out to pi in blocks of _BLOCK, each tested in one call: the first block
-    # holding a solvable angle ends the side (the rest of the circle is farther)
+    # the grid going out to pi in blocks, each tested in one call: the first block holding
+    # a solvable angle ends the side (the rest of the circle is farther). Blocks start
+    # small: the directions just beyond the first solvable one cost a full solve each
     grid = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
-    blocks = np.split(grid, np.arange(_BLOCK, len(grid), _BLOCK))
+    blocks = np.split(grid, _BLOCK_ENDS[_BLOCK_ENDS < len(grid)])
     for side in (1.0, -1.0):
         for offs in blocks:
             offs = side * offs
