@@ -11,8 +11,16 @@ import handarm
 from handarm.cad_out.handle_files import bom_rows, write_handle_outputs
 from handarm.carve import carve
 from handarm.carve.properties import to_trimesh
-from handarm.handle import FLANGE, _exit, handle, layout_problems, pulley_parts
-from handarm.links import MM, strands_in_link
+from handarm.handle import FLANGE, M3_CLEAR, _exit, handle, layout_problems, pulley_parts
+from handarm.links import (
+    M3_HEAD,
+    M3_PILOT,
+    MAST_CLAMP,
+    MAST_SCREW_DEPTH,
+    MM,
+    mast_screws,
+    strands_in_link,
+)
 
 OTHER = handarm.ArmDesign(link_lengths=(0.04, 0.07, 0.06, 0.05, 0.045, 0.055, 0.04))
 
@@ -144,6 +152,32 @@ def test_too_small_a_motor_pulley_is_refused(radius):
 
 
 @pytest.mark.slow
+def _ring(x, y, r, z, n=12):
+    """n points on the circle of radius r about the vertical axis through (x, y), at z."""
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.stack([x + r * np.cos(t), y + r * np.sin(t), np.full(n, z)], 1)
+
+
+def test_mast_screws_can_be_driven_from_under_the_bed_into_l0(built):
+    """Each screw's axis is open from under the bed to the end of l0's pilot hole; the mast
+    keeps a seat for the head and l0 keeps material around the pilot for the thread."""
+    d, carving, h = built
+    l0 = to_trimesh(carving.links[0].solid)
+    bed = to_trimesh(h.bed)
+    screws = mast_screws(d)
+    assert len(screws) == (2 if d.link_lengths[0] >= 0.05 else 1)
+    bottom = bed.bounds[0, 2]
+    for x, y, z in screws:
+        axis = np.array([[x, y, t] for t in np.linspace(bottom - 0.5, z + MAST_SCREW_DEPTH, 400)])
+        assert not bed.contains(axis).any() and not l0.contains(axis).any()
+        head = 0.5 * (M3_HEAD / 2 + M3_CLEAR / 2)  # under the head, beside the shank
+        assert bed.contains(_ring(x, y, head, z - MAST_CLAMP + 0.3)).all()  # the seat
+        assert not bed.contains(_ring(x, y, head, z - MAST_CLAMP - 0.3)).any()  # the counterbore
+        thread = M3_PILOT / 2 + 0.4  # where a self-cut M3 thread bites
+        assert l0.contains(_ring(x, y, thread, z + MAST_SCREW_DEPTH / 2)).all()
+        assert not l0.contains(_ring(x, y, M3_PILOT / 2 - 0.2, z + MAST_SCREW_DEPTH / 2)).any()
+
+
 def test_bom_and_assembly_guide(built, tmp_path):
     d, carving, h = built
     paths = write_handle_outputs(h, carving, tmp_path)

@@ -39,7 +39,15 @@ import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
 
 from handarm.design import ArmDesign
-from handarm.links import MM, link_blank, strands_in_link
+from handarm.links import (
+    M3_COUNTERBORE,
+    M3_PILOT,
+    MAST_CLAMP,
+    MM,
+    link_blank,
+    mast_screws,
+    strands_in_link,
+)
 
 __all__ = [
     "MotorPlace",
@@ -456,7 +464,7 @@ def pulley_parts(design: ArmDesign) -> tuple[Manifold, Manifold]:
     flange = flange + boss
     cuts = [
         _cyl(CENTRE_POCKET_R, -1.0, CENTRE_POCKET_TOP),
-        _cyl(1.25, CENTRE_POCKET_TOP, FLANGE + drum_h + 1),  # the M3 screw holding the drum
+        _cyl(M3_PILOT / 2, CENTRE_POCKET_TOP, FLANGE + drum_h + 1),  # the screw holding the drum
     ]
     for k in range(servo.horn_bolts):
         a = 2 * math.pi * k / servo.horn_bolts
@@ -559,13 +567,14 @@ def _bed(design: ArmDesign, places, grip_xy) -> Manifold:
     hull = CrossSection.hull_points(np.concatenate(pts).tolist()).offset(2.0, 0)
     bed = Manifold.extrude(hull, BED).translate([0, 0, lv["bed_bottom"]])
     parts = [bed]
-    # mast from the bed up to the underside of l0's handle, two M3 holes into l0
+    # mast from the bed up to the underside of l0's handle; its screws go in from under the
+    # bed, through a counterbore up to the last MAST_CLAMP mm, into l0's pilot holes
     top = handle_part.z0
     parts.append(_box(mx0, mx1, -my, my, lv["bed_top"] - 0.5, top))
-    cuts = [
-        _cyl(M3_CLEAR / 2, top - 12, top + 1, (2 * mx0 + mx1) / 3, 0.0, 24),
-        _cyl(M3_CLEAR / 2, top - 12, top + 1, (mx0 + 2 * mx1) / 3, 0.0, 24),
-    ]
+    cuts = []
+    for x, y, _ in mast_screws(design):
+        cuts.append(_cyl(M3_CLEAR / 2, top - MAST_CLAMP - 0.5, top + 1, x, y, 24))
+        cuts.append(_cyl(M3_COUNTERBORE / 2, lv["bed_bottom"] - 1, top - MAST_CLAMP, x, y, 32))
     # per motor: a lead-screw boss behind the saddle's travel, its hole along the cable
     for p in places:
         m = _place(design, p)

@@ -38,6 +38,7 @@ __all__ = [
     "strands_in_link",
     "anchor_angles",
     "corridor_radius",
+    "mast_screws",
     "MM",
 ]
 
@@ -397,6 +398,30 @@ def _axle(g: JointGeometry, frame: str) -> Hole:
 #: Length (mm) of the cable exit plate at the end of l0.
 EXIT_PLATE = 4.0
 
+#: Pilot hole (mm) for an M3 screw that cuts its own thread in a printed part.
+M3_PILOT = 2.5
+#: M3 socket head: diameter (mm) and the counterbore (mm) that lets it and a hex key pass.
+M3_HEAD, M3_COUNTERBORE = 5.5, 6.5
+#: The bed's mast holds l0 by M3 screws driven up from under the bed: each passes
+#: ``MAST_CLAMP`` mm of the mast's top and bites ``MAST_SCREW_DEPTH`` mm into l0's underside.
+MAST_CLAMP, MAST_SCREW_DEPTH = 6.0, 8.0
+
+
+def mast_screws(design: ArmDesign) -> np.ndarray:
+    """Where the mast screws meet l0's underside: (n, 3) points in the base frame, mm.
+
+    Two along l0's handle, each with a counterbore's width and a printable wall to the
+    handle's ends; one in its middle when a short l0 leaves no room for two. The bed's
+    holes (``handarm.handle``) and l0's pilot holes (its blank) are both placed from here.
+    """
+    g = joint_geometry(design, 1)
+    a = design.link_lengths[0] * MM
+    _, clear = _fork_sizes(design, g, a)
+    x0, x1 = -a, -clear
+    inset = M3_COUNTERBORE / 2 + 2.0
+    xs = [x0 + inset, x1 - inset] if x1 - x0 >= 4 * inset else [(x0 + x1) / 2]
+    return np.array([[x, 0.0, g.gap_lo - g.cheek] for x in xs])
+
 
 def _dist_transform(design: ArmDesign, k: int) -> np.ndarray | None:
     """4x4 (mm) from link k's distal joint frame into its link frame; None for l0 and l6."""
@@ -505,6 +530,16 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
             Part("cable exit plate", "dist", _box(-a - plate, -a, -bw - 4, bw + 4), z0, z1)
         )
         holes.append(_axle(g, "dist"))
+        for i, (x, y, z) in enumerate(mast_screws(design)):
+            holes.append(
+                Hole(
+                    f"mast screw pilot {i + 1}",
+                    "dist",
+                    (x, y, z - 1.0),
+                    (x, y, z + MAST_SCREW_DEPTH),
+                    M3_PILOT / 2,
+                )
+            )
         return LinkBlank(0, tuple(parts), tuple(holes), a, None, _channels(design, 0))
     g_prox = joint_geometry(design, k)
     t = g_prox.tongue_thickness / 2

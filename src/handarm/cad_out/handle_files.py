@@ -28,7 +28,7 @@ from handarm.carve.carving import CarveResult
 from handarm.carve.properties import to_trimesh
 from handarm.handle import BOSS, NUT_BLOCK, TRAVEL, Handle
 from handarm.kinematics import joint_frames
-from handarm.links import MM, joint_geometry
+from handarm.links import MAST_CLAMP, MAST_SCREW_DEPTH, MM, joint_geometry, mast_screws
 
 __all__ = ["write_handle_outputs", "bom_rows", "handle_summary", "assembled_meshes"]
 
@@ -153,7 +153,13 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
     add("lead screw", "bought", 6, f"M3 x {5 * math.ceil(lead / 5):.0f}", note="tensioner")
     add("nut", "bought", 6, "M3", note="nut trap in the saddle")
     add("drum screw + washer", "bought", 6, "M3 x 8", note="holds the drum on the flange")
-    add("mast screw", "bought", 2, "M3 x 12 self-tapping", note="bed mast into l0")
+    add(
+        "mast screw",
+        "bought",
+        len(mast_screws(h.design)),
+        f"M3 x {MAST_CLAMP + MAST_SCREW_DEPTH - 2:.0f} socket head",
+        note="up through the bed's mast into l0's pilot holes (it cuts its own thread)",
+    )
     runs = [(p.distance + TRAVEL) / MM for p in h.places]
     for c, cut in enumerate(cut_lengths(d, motor_run=tuple(runs))):
         add(
@@ -300,8 +306,9 @@ def _write_assembly(h, carving, meshes, rows, out: Path) -> list[Path]:
         (
             "l0 on the mast",
             ["l0"],
-            "Screw l0 onto the bed's mast (two M3 mast "
-            "screws from below); its cable exit faces the servos.",
+            f"Screw l0 onto the bed's mast: {len(mast_screws(d))} M3 mast screw(s) go up "
+            "through the counterbores under the bed (a 2.5 mm hex key reaches them) into "
+            "l0's pilot holes. Its cable exit faces the servos.",
         )
     )
     for k in range(1, 7):
