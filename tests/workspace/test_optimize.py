@@ -324,3 +324,59 @@ def test_grid_sampler_runs_past_the_end_of_its_grid_under_ask_and_tell(opt_file)
         seen.add((t.params["limit_deg_5"], t.params["beam_width"]))
         study.tell(t, [1.0, 1.0])
     assert len(seen) == 30
+
+
+def test_repeated_parameter_sets_are_answered_from_the_journal_not_measured(tmp_path):
+    """NSGA-II children often copy a parent: such a trial is told the stored measurement."""
+    import optuna
+
+    from handarm.workspace.optimize import _distributions, ask_new, counted
+
+    path = tmp_path / "opt.toml"
+    path.write_text(
+        OPT.replace(
+            "beam_width = {low = 0.011, high = 0.013}",
+            "limit_deg_2 = {low = 110, high = 160, step = 25}",
+        ).replace("trials = 3", "trials = 3\npopulation = 4")
+    )
+    opt = load_opt(path)
+    study = optuna.create_study(
+        directions=["maximize", "minimize"],
+        sampler=optuna.samplers.NSGAIISampler(population_size=4, seed=3),
+    )
+    dists, seen, measured = _distributions(opt), {}, []
+    for _ in range(12):  # 12 of the 6 x 3 parameter sets
+        t = ask_new(opt, study, dists, seen)
+        a, b = t.params["limit_deg_5"], t.params["limit_deg_2"]
+        m = {"reachable_volume_L": a + b, "mass_g": 100.0 + a - b, "printable": True}
+        m["motor_travel_ok"] = True
+        t.set_user_attr("measurements", m)
+        study.tell(t, [m["reachable_volume_L"], m["mass_g"]])
+        measured.append((a, b))
+    assert len(set(measured)) == 12  # every measurement is of a new design
+    trials = study.get_trials(deepcopy=False)
+    repeats = [t for t in trials if "repeat_of" in t.user_attrs]
+    assert repeats  # the sampler did ask for designs it had already seen
+    for t in repeats:
+        first = trials[t.user_attrs["repeat_of"]]
+        assert t.params == first.params and t.values == first.values
+        assert not counted(t) and counted(first)
+    assert sum(counted(t) for t in trials) == 12
+
+
+def test_a_trial_a_killed_run_left_running_is_asked_again_and_not_counted(opt_file, tmp_path):
+    from handarm.workspace.optimize import _distributions, counted, open_study
+
+    opt = load_opt(opt_file)
+    study = open_study(opt, tmp_path, "tpe")
+    trials = [study.ask(_distributions(opt)) for _ in range(3)]
+    for t in trials[:2]:
+        t.set_user_attr("measurements", {"mass_g": 90.0})
+        study.tell(t, [1.0, 90.0])
+    # the run is killed with the third trial still being measured
+    study = open_study(opt, tmp_path, "tpe")
+    done = study.get_trials(deepcopy=False)
+    assert [t.state.name for t in done[:3]] == ["COMPLETE", "COMPLETE", "FAIL"]
+    assert [counted(t) for t in done[:3]] == [True, True, False]
+    waiting = [t.system_attrs["fixed_params"] for t in done if t.state.name == "WAITING"]
+    assert trials[2].params in waiting  # queued to be measured again

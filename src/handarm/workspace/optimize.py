@@ -52,6 +52,23 @@ __all__ = [
 ]
 
 _TRIAL_STATES = ("COMPLETE", "FAIL", "PRUNED")
+#: A sampler that asks for this many parameter sets in a row that were all measured before
+#: has converged: its next repeat is measured again (and counted), so a run always ends.
+_MAX_REPEATS = 50
+
+
+def counted(t) -> bool:
+    """Whether trial ``t`` is a finished measurement (not one in flight, queued or a repeat).
+
+    A repeat is a trial whose parameters a sampler asked for again (NSGA-II's children
+    often copy a parent): it is answered from the earlier trial's stored measurement, which
+    keeps the sampler's bookkeeping right, and it does not count against ``--trials``. A
+    trial that a killed run left unfinished is not counted either: it is asked again.
+    """
+    attrs = t.user_attrs
+    if t.state.name == "FAIL" and "error" not in attrs and "measurements" not in attrs:
+        return False  # left running by a killed run (every failure of a run says why)
+    return t.state.name in _TRIAL_STATES and "repeat_of" not in attrs
 
 
 def measure_design(
@@ -322,10 +339,11 @@ def open_study(opt: OptFile, out: Path, sampler: str | None = None):
             f"out: {out} holds a run of a different optimization file (variables, objectives, "
             "constraints or map settings changed); use another --out"
         )
-    # trials left RUNNING by a killed run are failed, then asked again
+    # trials left RUNNING by a killed run are failed (not counted), then asked again
     for t in study.get_trials(deepcopy=False):
         if t.state.name == "RUNNING":
             study.tell(t.number, state=optuna.trial.TrialState.FAIL)
+            study.enqueue_trial(dict(t.params), skip_if_exists=False)
     # a resumed session gets its own seed, still reproducible: file seed + trials so far
     name = sampler or opt.sampler
     if not study.trials and name in ("nsga2", "tpe"):
@@ -409,7 +427,9 @@ def run_optimization(
     Returns
     -------
     dict
-        ``new`` (trials run now), ``finished`` (in the journal), ``front``, ``hypervolume``.
+        ``new`` (trials run now), ``finished`` (in the journal), ``repeats`` (parameter
+        sets the sampler asked for again, answered from the journal: see ``counted``),
+        ``front``, ``hypervolume``.
     """
     if trials is not None and (isinstance(trials, bool) or trials < 1):
         raise ValueError(f"trials: expected an integer >= 1, got {trials!r}")
@@ -419,7 +439,7 @@ def run_optimization(
     out = Path(out)
     total = trials or opt.trials
     study = open_study(opt, out, sampler)
-    finished = sum(t.state.name in _TRIAL_STATES for t in study.get_trials(deepcopy=False))
+    finished = sum(counted(t) for t in study.get_trials(deepcopy=False))
     todo = max(0, total - finished)
     if stop_after is not None:
         todo = min(todo, stop_after)
@@ -432,7 +452,8 @@ def run_optimization(
     from handarm.report import write_report  # plotly: loaded only for the report
 
     write_report(out)
-    return {"new": new, "finished": finished + new, **result}
+    repeats = sum("repeat_of" in t.user_attrs for t in study.get_trials(deepcopy=False))
+    return {"new": new, "finished": finished + new, "repeats": repeats, **result}
 
 
 def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total) -> int:
@@ -445,11 +466,14 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
     asked = done = 0
     running = {}
 
+    # measured (or in flight) parameter sets -> trial number
+    seen = {_param_key(t.params): t.number for t in study.get_trials(deepcopy=False) if counted(t)}
+
     def ask_one(ac):
         nonlocal asked, done, finished
         while asked < todo:
+            trial = ask_new(opt, study, dists, seen)
             asked += 1
-            trial = study.ask(dists)
             try:
                 design = opt.design(trial.params)
             except ValueError as exc:
@@ -502,10 +526,49 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
     return done
 
 
+def _param_key(params: dict) -> tuple:
+    return tuple(sorted((k, repr(v)) for k, v in params.items()))
+
+
+def ask_new(opt: OptFile, study, dists: dict, seen: dict):
+    """The next trial to measure: a parameter set not in ``seen`` (params key -> trial).
+
+    Repeats the sampler asks for are answered from ``seen`` (``_answer_repeat``) and asked
+    again, up to ``_MAX_REPEATS`` in a row; the trial returned is entered in ``seen``.
+    """
+    for _ in range(_MAX_REPEATS):
+        trial = study.ask(dists)
+        key = _param_key(trial.params)
+        if key not in seen:
+            break
+        _answer_repeat(opt, study, trial, seen[key])
+    else:
+        trial = study.ask(dists)  # converged: measured again, and counted
+    seen[_param_key(trial.params)] = trial.number
+    return trial
+
+
+def _answer_repeat(opt: OptFile, study, trial, original: int) -> None:
+    """Tell ``trial`` what trial ``original`` measured (or, still in flight, that it failed)."""
+    import optuna
+
+    trial.set_user_attr("repeat_of", original)
+    first = study.get_trials(deepcopy=False)[original]
+    if first.state.name != "COMPLETE":
+        # failed, or still being measured: the sampler learns nothing new from the copy
+        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        return
+    m = first.user_attrs.get("measurements", {})
+    trial.set_user_attr("measurements", m)
+    for name, value in feasibility(opt, m)[0].items():
+        trial.set_constraint(name, value)
+    study.tell(trial, _values(opt, m))
+
+
 def _rows(opt: OptFile, study) -> list[dict]:
     rows = []
     for t in study.get_trials(deepcopy=False):
-        if t.state.name not in _TRIAL_STATES:  # running, or queued and not yet asked
+        if not counted(t):  # running, queued and not yet asked, or a repeat
             continue
         m = t.user_attrs.get("measurements", {})
         ok = t.state.name == "COMPLETE"
