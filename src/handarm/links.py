@@ -218,7 +218,12 @@ def joint_geometry(design: ArmDesign, j: int) -> JointGeometry:
 
 
 def _fork(
-    g: JointGeometry, frame: str, length: float, clear: float, extra: tuple[float, float]
+    g: JointGeometry,
+    frame: str,
+    length: float,
+    clear: float,
+    extra: tuple[float, float],
+    below: float = 0.0,
 ) -> list[Part]:
     """Cheeks and the bridge joining them, in the joint's frame; the link lies towards -x.
 
@@ -231,7 +236,7 @@ def _fork(
     cheek = g.cheek
     top, bottom = hi + cheek + extra[0], lo - cheek - extra[1]
     hub = _circle(g.hub_radius)
-    plate = _box(-length, 0.0, -g.hub_radius, g.hub_radius)
+    plate = _box(-length, 0.0, -g.hub_radius - below, g.hub_radius)
     return [
         Part(f"fork cheek + at joint {g.joint}", frame, hub, hi, hi + cheek, axisymmetric=True),
         Part(f"fork cheek - at joint {g.joint}", frame, hub, lo - cheek, lo, axisymmetric=True),
@@ -240,7 +245,7 @@ def _fork(
         Part(
             f"fork bridge at joint {g.joint}",
             frame,
-            _box(-length, -clear, -g.hub_radius, g.hub_radius),
+            _box(-length, -clear, -g.hub_radius - below, g.hub_radius),
             bottom,
             top,
         ),
@@ -478,6 +483,27 @@ def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
     return out
 
 
+def _twist_fin(design: ArmDesign) -> float:
+    """How far (mm) l3's fork plates and bridge reach below the hub radius, along joint 3.
+
+    l3's fork turns about joint 4, square to joint 3, so its plates stand across the slab
+    that l2's lower fork plate sweeps about joint 3 (grown by the clearance). Below that
+    slab a fin of the plates is left; it is grown to ``min_wall`` (plus a margin) where it
+    would be thinner.
+    """
+    g = joint_geometry(design, 3)
+    a = design.link_lengths[2] * MM
+    length, _ = _fork_sizes(design, g, a)
+    lo_extra = _plate_extra(design, 2, g, length, _dist_transform(design, 2))[1]
+    slab_bottom = g.gap_lo - g.cheek - lo_extra - g.clearance
+    hub = joint_geometry(design, 4).hub_radius
+    fin = slab_bottom - (-hub)  # l3's plates end at -hub along joint 3
+    wall = design.min_wall * MM + _WALL_MARGIN
+    if fin <= 0.0 or fin >= wall:
+        return 0.0
+    return wall - fin
+
+
 def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
     radius = corridor_radius(design)
@@ -560,6 +586,7 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     dist = _dist_transform(design, k)
     parts.append(Part("beam", "prox", _box(0.0, a - clear, -bw, bw), -t, t))
     extra = _plate_extra(design, k, g_dist, length, dist)
-    parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra)
+    below = _twist_fin(design) if k == 3 else 0.0
+    parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra, below=below)
     holes.append(_axle(g_dist, "dist"))
     return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k))

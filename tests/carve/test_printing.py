@@ -1,5 +1,7 @@
 """Wall thickness and support area, checked on solids whose answer is known by hand."""
 
+import math
+
 import numpy as np
 import pytest
 from manifold3d import Manifold
@@ -105,3 +107,27 @@ def test_cable_corridors_leave_the_fork_plates_min_wall():
         wall, thin = wall_thickness(link.solid, design.min_wall * 1e3)
         assert wall >= design.min_wall * 1e3 - 1e-6, (link.blank.name, wall)
         assert thin == 0.0
+
+
+@pytest.mark.parametrize(
+    "changes", [{}, {"link_lengths": (0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05)}]
+)
+def test_l3_fork_keeps_min_wall_below_the_slab_l2_sweeps(changes):
+    """l3's fork plates stand across joint 3's plane; l2's lower fork plate, turning about
+    joint 3, cuts a slab out of them and left a 0.7 mm fin below it on the paper's arm.
+    Measured on the carved l3, cut off just inside the slab and near joint 3 (where l2
+    reaches): the fin keeps min_wall."""
+    from handarm.carve import carve
+    from handarm.links import _fork_sizes, joint_geometry
+
+    design = handarm.ArmDesign().replace(**changes)
+    l3 = carve(design, 2.0).links[3].solid
+    g = joint_geometry(design, 3)
+    slab_bottom = g.gap_lo - g.cheek - g.clearance  # l2's plate (not grown here) + clearance
+    length, _ = _fork_sizes(design, g, design.link_lengths[2] * 1e3)
+    reach = math.hypot(length, g.hub_radius)  # l2's fork plate, from joint 3
+    box = Manifold.cube([reach, 100.0, 20.0]).translate([0.0, -50.0, slab_bottom + 0.3 - 20.0])
+    fin = l3 ^ box
+    assert fin.volume() > 1.0  # the plates do reach below the slab
+    wall, thin = wall_thickness(fin, design.min_wall * 1e3)
+    assert wall >= design.min_wall * 1e3 - 1e-6 and thin == 0.0, wall
