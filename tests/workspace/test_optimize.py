@@ -364,19 +364,45 @@ def test_repeated_parameter_sets_are_answered_from_the_journal_not_measured(tmp_
     assert sum(counted(t) for t in trials) == 12
 
 
-def test_a_trial_a_killed_run_left_running_is_asked_again_and_not_counted(opt_file, tmp_path):
-    from handarm.workspace.optimize import _distributions, counted, open_study
+@pytest.mark.slow
+def test_optimize_resumes_after_the_process_is_killed(opt_file, tmp_path):
+    """SIGKILL the command (and its Dask workers) while a trial is being measured; the same
+    command then finishes the run, measuring the trial that was in flight first."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
 
-    opt = load_opt(opt_file)
-    study = open_study(opt, tmp_path, "tpe")
-    trials = [study.ask(_distributions(opt)) for _ in range(3)]
-    for t in trials[:2]:
-        t.set_user_attr("measurements", {"mass_g": 90.0})
-        study.tell(t, [1.0, 90.0])
-    # the run is killed with the third trial still being measured
-    study = open_study(opt, tmp_path, "tpe")
-    done = study.get_trials(deepcopy=False)
-    assert [t.state.name for t in done[:3]] == ["COMPLETE", "COMPLETE", "FAIL"]
-    assert [counted(t) for t in done[:3]] == [True, True, False]
-    waiting = [t.system_attrs["fixed_params"] for t in done if t.state.name == "WAITING"]
-    assert trials[2].params in waiting  # queued to be measured again
+    import optuna
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "handarm.cli", "optimize", str(opt_file), "--out", str(out)]
+    cmd += ["--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True)
+
+    def states():
+        if not (out / "journal.log").exists():
+            return []
+        storage = JournalStorage(JournalFileBackend(str(out / "journal.log")))
+        study = optuna.load_study(study_name="tiny", storage=storage)
+        return [t.state.name for t in study.get_trials(deepcopy=False)]
+
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and proc.poll() is None:
+        s = states()
+        if "COMPLETE" in s and "RUNNING" in s:
+            break
+        time.sleep(0.2)
+    assert proc.poll() is None, "the run ended before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (out / "trials.csv").exists()  # killed before any output was written
+    assert main(["optimize", str(opt_file), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    assert len(rows) == 3 and {r["state"] for r in rows} == {"COMPLETE"}
+    storage = JournalStorage(JournalFileBackend(str(out / "journal.log")))
+    trials = optuna.load_study(study_name="tiny", storage=storage).get_trials()
+    assert [t.state.name for t in trials if t.state.name != "WAITING"] == ["COMPLETE"] * 3

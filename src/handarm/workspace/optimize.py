@@ -63,12 +63,10 @@ def counted(t) -> bool:
     A repeat is a trial whose parameters a sampler asked for again (NSGA-II's children
     often copy a parent): it is answered from the earlier trial's stored measurement, which
     keeps the sampler's bookkeeping right, and it does not count against ``--trials``. A
-    trial that a killed run left unfinished is not counted either: it is asked again.
+    trial that a killed run left running is not counted until it is measured (first thing
+    when the run is resumed).
     """
-    attrs = t.user_attrs
-    if t.state.name == "FAIL" and "error" not in attrs and "measurements" not in attrs:
-        return False  # left running by a killed run (every failure of a run says why)
-    return t.state.name in _TRIAL_STATES and "repeat_of" not in attrs
+    return t.state.name in _TRIAL_STATES and "repeat_of" not in t.user_attrs
 
 
 def measure_design(
@@ -339,11 +337,6 @@ def open_study(opt: OptFile, out: Path, sampler: str | None = None):
             f"out: {out} holds a run of a different optimization file (variables, objectives, "
             "constraints or map settings changed); use another --out"
         )
-    # trials left RUNNING by a killed run are failed (not counted), then asked again
-    for t in study.get_trials(deepcopy=False):
-        if t.state.name == "RUNNING":
-            study.tell(t.number, state=optuna.trial.TrialState.FAIL)
-            study.enqueue_trial(dict(t.params), skip_if_exists=False)
     # a resumed session gets its own seed, still reproducible: file seed + trials so far
     name = sampler or opt.sampler
     if not study.trials and name in ("nsga2", "tpe"):
@@ -467,12 +460,19 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
     running = {}
 
     # measured (or in flight) parameter sets -> trial number
-    seen = {_param_key(t.params): t.number for t in study.get_trials(deepcopy=False) if counted(t)}
+    trials = study.get_trials(deepcopy=False)
+    seen = {_param_key(t.params): t.number for t in trials if counted(t)}
+    # trials a killed run left running: measured again first, under their own numbers
+    left = [t for t in trials if t.state.name == "RUNNING"]
+    seen.update({_param_key(t.params): t.number for t in left})
 
     def ask_one(ac):
         nonlocal asked, done, finished
         while asked < todo:
-            trial = ask_new(opt, study, dists, seen)
+            if left:
+                trial = optuna.trial.Trial(study, left.pop(0)._trial_id)
+            else:
+                trial = ask_new(opt, study, dists, seen)
             asked += 1
             try:
                 design = opt.design(trial.params)
