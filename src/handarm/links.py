@@ -491,17 +491,11 @@ def _twist_fin(design: ArmDesign) -> float:
     slab a fin of the plates is left; it is grown to ``min_wall`` (plus a margin) where it
     would be thinner.
     """
-    g = joint_geometry(design, 3)
-    a = design.link_lengths[2] * MM
-    length, _ = _fork_sizes(design, g, a)
-    lo_extra = _plate_extra(design, 2, g, length, _dist_transform(design, 2))[1]
-    slab_bottom = g.gap_lo - g.cheek - lo_extra - g.clearance
-    hub = joint_geometry(design, 4).hub_radius
-    fin = slab_bottom - (-hub)  # l3's plates end at -hub along joint 3
+    plate = next(p for p in link_blank(design, 2).parts if p.name == "fork plate - at joint 3")
+    slab_bottom = plate.z0 - design.clearance * MM
+    fin = slab_bottom + joint_geometry(design, 4).hub_radius  # l3's plates end at -hub
     wall = design.min_wall * MM + _WALL_MARGIN
-    if fin <= 0.0 or fin >= wall:
-        return 0.0
-    return wall - fin
+    return wall - fin if 0.0 < fin < wall else 0.0
 
 
 def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:

@@ -37,6 +37,7 @@ from __future__ import annotations
 import contextvars
 import dataclasses
 import functools
+import itertools
 import math
 
 import numpy as np
@@ -439,13 +440,8 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> lis
         k = min(40 * _SEEDS, len(dist) - 1)
         nearest = np.argpartition(dist, k)[:k]
         near = cloud_q[nearest[np.argsort(dist[nearest])]]
-        picked = 0
-        for q in near:  # lazily: a validity test costs ~25 us
-            if picked == _SEEDS:
-                break
-            if _valid(design, q):
-                seeds.append(q)
-                picked += 1
+        # lazily: a validity test costs ~25 us
+        seeds.extend(itertools.islice((q for q in near if _valid(design, q)), _SEEDS))
     return seeds
 
 

@@ -507,15 +507,7 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
                 trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
                 study.tell(trial, state=optuna.trial.TrialState.FAIL)
             else:
-                trial.set_user_attr("measurements", m)
-                values, _violated = feasibility(opt, m)
-                for name, value in values.items():
-                    trial.set_constraint(name, value)
-                if m.get("printable") and "mass_g" in m and "reachable_volume_L" in m:
-                    study.tell(trial, _values(opt, m))
-                else:
-                    trial.set_user_attr("error", m.get("error", "not measured"))
-                    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+                _tell_measured(opt, study, trial, m)
             done += 1
             finished += 1
             if progress:
@@ -558,11 +550,21 @@ def _answer_repeat(opt: OptFile, study, trial, original: int) -> None:
         # failed, or still being measured: the sampler learns nothing new from the copy
         study.tell(trial, state=optuna.trial.TrialState.FAIL)
         return
-    m = first.user_attrs.get("measurements", {})
+    _tell_measured(opt, study, trial, first.user_attrs.get("measurements", {}))
+
+
+def _tell_measured(opt: OptFile, study, trial, m: dict) -> None:
+    """Store measurement ``m`` with ``trial``, its constraint values, and tell the study."""
+    import optuna
+
     trial.set_user_attr("measurements", m)
     for name, value in feasibility(opt, m)[0].items():
         trial.set_constraint(name, value)
-    study.tell(trial, _values(opt, m))
+    if m.get("printable") and "mass_g" in m and "reachable_volume_L" in m:
+        study.tell(trial, _values(opt, m))
+    else:
+        trial.set_user_attr("error", m.get("error", "not measured"))
+        study.tell(trial, state=optuna.trial.TrialState.FAIL)
 
 
 def _rows(opt: OptFile, study) -> list[dict]:
