@@ -203,3 +203,65 @@ def test_serial_and_parallel_kernels_agree():
     )
     np.testing.assert_array_equal(pairs, pairs_parts)
     np.testing.assert_array_equal(whole, ~pairs.any(axis=1))
+
+
+@pytest.mark.parametrize("name", list(DESIGNS))
+def test_link_reach_holds_every_piece_wherever_the_arm_is(name):
+    """Placed by the URDF frames at any angles, each piece's bounding sphere stays within its
+    link's reach of joint 1 (l0-l2) or joint 6 (l4-l6), and the reach is nearly attained."""
+    design = DESIGNS[name]
+    env = collision.envelopes(design)
+    reach = collision.link_reach(design)
+    assert sorted(reach) == [0, 1, 2, 4, 5, 6]
+    blanks = [link_blank(design, k) for k in range(7)]
+    arm = MeshArm.__new__(MeshArm)
+    arm.design = design
+    rng = np.random.default_rng(11)
+    q = np.vstack([np.zeros(6), rng.uniform(-math.pi, math.pi, (400, 6))])
+    seen = dict.fromkeys(reach, 0.0)
+    for qi in q:
+        tf = arm.transforms(qi)
+        joint6 = tf[6][:3, 3]
+        for i in range(len(env.link)):
+            k = int(env.link[i])
+            if k not in reach:
+                continue
+            frame = "prox" if env.frame[i] == 0 else "dist"
+            mid = 0.5 * (env.seg[i, :2] + env.seg[i, 2:]) * 1e3
+            centre = np.array([mid[0], mid[1], env.z[i].mean() * 1e3, 1.0])
+            world = (tf[k] @ frame_to_link(blanks[k], frame) @ centre)[:3]
+            anchor = np.zeros(3) if k <= 2 else joint6
+            far = (np.linalg.norm(world - anchor) + env.sphere[i] * 1e3) * 1e-3
+            assert far <= reach[k] + 1e-12, (name, k, far, reach[k])
+            seen[k] = max(seen[k], far)
+    for k in reach:
+        assert seen[k] > 0.97 * reach[k], (k, seen[k], reach[k])
+
+
+def test_far_groups_are_the_pairs_of_links_out_of_reach():
+    """A group's threshold is its two links' reach and the clearance; only groups between
+    l0-l2 and l4-l6 have one, and on FK targets whose joint 6 lies beyond it the link pair
+    is never reported in contact."""
+    design = handarm.ArmDesign()
+    env = collision.envelopes(design)
+    reach = collision.link_reach(design)
+    far = collision.far_thresholds(design)
+    for g, (bi, bj, _, _) in enumerate(env.groups):
+        la, lb = int(env.link[bi]), int(env.link[bj])
+        if la <= 2 and lb >= 4:
+            assert far[g] == pytest.approx(reach[la] + reach[lb] + design.clearance)
+        else:
+            assert far[g] == np.inf
+    q = np.random.default_rng(12).uniform(design.lower, design.upper, (20000, 6))
+    joint6 = handarm.joint_positions(design, q)[:, 6]
+    dist = np.linalg.norm(joint6, axis=1)
+    pairs = collision.printed_collisions(design, q)
+    excluded = 0
+    for lp, (la, lb) in enumerate(collision.LINK_PAIRS):
+        g0, g1 = env.lp_groups[lp]
+        if g1 == g0 or not np.isfinite(far[g0:g1]).all():
+            continue
+        beyond = dist > far[g0:g1].max()
+        excluded += beyond.sum()
+        assert not pairs[beyond, lp].any(), (la, lb)
+    assert excluded > 1000  # the thresholds leave groups out of many targets

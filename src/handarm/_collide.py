@@ -41,8 +41,14 @@ JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 N_FRAMES = 14
 #: Columns of a placed piece: segment ends in its plane (4), bounding-sphere centre (3), how
 #: far it can move (1), how far it slides along its own segment and the unit direction of
-#: that slide (3).
-PLACED = 11
+#: that slide (3), how far it can move relative to l3 (1, l2 and l4 only: see ``_REL``).
+PLACED = 12
+#: Column of a placed piece's motion relative to l3. l2 turns about joint 3 and l4 about
+#: joint 4, and both joints slide along L with l3 by the same amount: seen from l3, which
+#: only slides, a piece of l2 or l4 moves by its turn alone. The model is unchanged when
+#: both pieces of a pair slide together along L, so the pair (l2, l4) is tested with these
+#: motions (their slide cancels), and every other pair with the pieces' motions in space.
+_REL = 11
 
 
 @nb.njit(**JIT)
@@ -309,13 +315,18 @@ def cover_search(along, across):
 
 
 @nb.njit(**JIT)
-def _moves(xy, i):
-    """How far placed piece i (and its bounding sphere) can move: grow plus slide."""
+def _moves(xy, i, col):
+    """How far placed piece i (and its bounding sphere) can move: grow plus slide.
+
+    ``col`` is 7 (in space) or ``_REL`` (relative to l3: no slide).
+    """
+    if col == _REL:
+        return xy[i, _REL]
     return xy[i, 7] + xy[i, 8]
 
 
 @nb.njit(**JIT)
-def _swept(xy, pf, i, sgn):
+def _swept(xy, pf, i, sgn, col):
     """Segment ends and radius of placed piece i over its motion: sgn 1 grown, -1 shrunk.
 
     Grown: the piece wherever it can be (a superset of every position); shrunk: inside the
@@ -326,6 +337,8 @@ def _swept(xy, pf, i, sgn):
     2 e, the disc at its middle with the radius shrunk by e minus half the length.
     """
     x0, y0, x1, y1 = xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3]
+    if col == _REL:
+        return x0, y0, x1, y1, pf[i, 4] + sgn * xy[i, _REL]
     r = pf[i, 4] + sgn * xy[i, 7]
     e = xy[i, 8]
     if e > 0.0:
@@ -344,19 +357,20 @@ def _swept(xy, pf, i, sgn):
 
 
 @nb.njit(**JIT)
-def _contact(xy, pi, pf, i, j, sgn, dx, dy, fx, fy, c):
+def _contact(xy, pi, pf, i, j, sgn, dx, dy, fx, fy, c, col):
     """Whether placed pieces i, j are in contact, grown (sgn 1) or shrunk (-1) by their motion.
 
     The model's two tests: bounding spheres that overlap and pieces that meet (see
-    ``_swept``; a bounding sphere moves with its piece, by at most grow + slide).
+    ``_swept``; a bounding sphere moves with its piece, by at most grow + slide). ``col``:
+    motions in space (7) or relative to l3 (``_REL``).
     """
-    gi = sgn * _moves(xy, i)
-    gj = sgn * _moves(xy, j)
+    gi = sgn * _moves(xy, i, col)
+    gj = sgn * _moves(xy, j, col)
     if _apart(xy[i, 4], xy[i, 5], xy[i, 6], pf[i, 7] + gi,
               xy[j, 4], xy[j, 5], xy[j, 6], pf[j, 7] + gj + c):  # fmt: skip
         return False
-    ax0, ay0, ax1, ay1, ra = _swept(xy, pf, i, sgn)
-    bx0, by0, bx1, by1, rb = _swept(xy, pf, j, sgn)
+    ax0, ay0, ax1, ay1, ra = _swept(xy, pf, i, sgn, col)
+    bx0, by0, bx1, by1, rb = _swept(xy, pf, j, sgn, col)
     return _collide_placed(
         ax0, ay0, ax1, ay1, ra, pf[i, 5], pf[i, 6], pi[i, 2],
         bx0, by0, bx1, by1, rb, pf[j, 5], pf[j, 6], pi[j, 2],
@@ -391,6 +405,8 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
             continue
         first = groups[g, 2] - 1  # row -1 of the group: its two bounding pieces
         single = groups[g, 2] == groups[g, 3]  # the group is that one pair
+        col = _REL if pi[groups[g, 0], 0] == 2 and pi[groups[g, 1], 0] == 4 else 7
+        g_unsure = False
         for r in range(first, groups[g, 3]):
             if r == first:
                 i, j = groups[g, 0], groups[g, 1]
@@ -407,7 +423,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                     )  # fmt: skip
                     xy[k, 0], xy[k, 1], xy[k, 2], xy[k, 3] = x0, y0, x1, y1
                     xy[k, 4], xy[k, 5], xy[k, 6] = cx, cy, cz
-                    grow, slide = 0.0, 0.0
+                    grow, slide, rel = 0.0, 0.0, 0.0
                     if moving and pi[k, 3] == 1:
                         # l3 moves by sliding along L, here along the segment: exactly
                         slide = m0
@@ -421,16 +437,28 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                         g1 = coef[k, 1, 0] * m0 + coef[k, 1, 1] * m1 + coef[k, 1, 2] * m2
                         g1 += coef[k, 1, 3] * m3 + coef[k, 1, 4] * m4
                         grow = min(g0, g1)
+                        if pi[k, 0] == 2 or pi[k, 0] == 4:
+                            # the bound that moves the piece with the joint on L, less the slide
+                            o = 0 if coef[k, 0, 0] > 0.0 else 1
+                            rel = g0 if o == 0 else g1
+                            rel -= coef[k, o, 0] * m0
                     xy[k, 7] = grow
                     xy[k, 8] = slide
-            if not _contact(xy, pi, pf, i, j, 1.0, dx, dy, fx, fy, c):
-                if r == first:
-                    break
-                continue
-            if r == first and not single:
-                continue  # the bounding pieces meet: look at the pieces
-            still = _moves(xy, i) == 0.0 and _moves(xy, j) == 0.0
-            if still or _contact(xy, pi, pf, i, j, -1.0, dx, dy, fx, fy, c):
+                    xy[k, _REL] = rel
+            still = _moves(xy, i, col) == 0.0 and _moves(xy, j, col) == 0.0
+            if g_unsure:
+                # the group is unsure already: only a contact all along can change that
+                # (shrunk contact implies grown contact, so the grown test is skipped)
+                if not _contact(xy, pi, pf, i, j, 1.0 if still else -1.0, dx, dy, fx, fy, c, col):
+                    continue
+            else:
+                if not _contact(xy, pi, pf, i, j, 1.0, dx, dy, fx, fy, c, col):
+                    if r == first:
+                        break
+                    continue
+                if r == first and not single:
+                    continue  # the bounding pieces meet: look at the pieces
+            if g_unsure or still or _contact(xy, pi, pf, i, j, -1.0, dx, dy, fx, fy, c, col):
                 # contact all along, if the group's bounding pair (the model tests it first)
                 # is in contact all along. Its pieces hold these two wherever they are, and
                 # the pieces' test grows with the pieces, so its pieces meet all along: what
@@ -439,12 +467,14 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                 # bounding piece's segment, l1's hub on joint 1 say, whose piece turns:
                 # stretches were halved down to TOL over a whole range.)
                 bi, bj = groups[g, 0], groups[g, 1]
-                gbi, gbj = _moves(xy, bi), _moves(xy, bj)
+                gbi, gbj = _moves(xy, bi, col), _moves(xy, bj, col)
                 if single or (gbi == 0.0 and gbj == 0.0):
                     return True, 0
                 if not _apart(xy[bi, 4], xy[bi, 5], xy[bi, 6], pf[bi, 7] - gbi,
                               xy[bj, 4], xy[bj, 5], xy[bj, 6], pf[bj, 7] - gbj + c):  # fmt: skip
                     return True, 0
+            g_unsure = True
+        if g_unsure:
             unsure |= 1 << g
     return False, unsure
 

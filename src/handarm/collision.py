@@ -380,6 +380,90 @@ def printed_collisions(design: ArmDesign, q) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
+def kernel_far(design: ArmDesign) -> np.ndarray:
+    """``far_thresholds`` of the design, cached and read-only, as the kernels take them."""
+    far = far_thresholds(design)
+    far.flags.writeable = False
+    return far
+
+
+def link_reach(design: ArmDesign, env: Envelopes | None = None) -> dict[int, float]:
+    """How far the envelope of l0, l1, l2 reaches from joint 1, and of l4, l5, l6 from joint 6.
+
+    Whatever the configuration, every piece of l0, l1 or l2, bounding sphere included, lies
+    within ``reach[k]`` of joint 1, and every piece of l4, l5 or l6 within ``reach[k]`` of
+    joint 6: l0 is fixed to joint 1, l1 turns about it, l2 about joint 2 (at ``a1`` from
+    joint 1); l6 is fixed to joint 6, l5 turns about it, l4 about joint 5 (at ``a5`` from
+    joint 6).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    env : Envelopes, optional
+
+    Returns
+    -------
+    dict
+        Link index (0, 1, 2, 4, 5, 6) -> metres.
+    """
+    env = envelopes(design) if env is None else env
+    a = design.lengths
+    # per side (link, frame): where the joint it turns about sits in the side's frame, and
+    # that joint's distance from joint 1 or 6
+    anchor = {
+        (0, 0): (0.0, 0.0),
+        (1, 0): (0.0, 0.0),
+        (1, 1): (-a[1], 0.0),
+        (2, 0): (0.0, a[1]),
+        (2, 1): (-a[2], a[1]),
+        (4, 0): (a[4], a[5]),
+        (4, 1): (0.0, a[5]),
+        (5, 0): (a[5], 0.0),
+        (5, 1): (0.0, 0.0),
+        (6, 0): (0.0, 0.0),
+    }
+    mid = 0.5 * (env.seg[:, :2] + env.seg[:, 2:])
+    reach: dict[int, float] = {}
+    for i in range(len(env.link)):
+        side = (int(env.link[i]), int(env.frame[i]))
+        if side not in anchor:
+            continue
+        ax, offset = anchor[side]
+        centre = np.array([mid[i, 0] - ax, mid[i, 1], env.z[i].mean()])
+        r = float(np.linalg.norm(centre)) + float(env.sphere[i]) + offset
+        reach[side[0]] = max(reach.get(side[0], 0.0), float(r) * (1.0 + 1e-12))
+    return reach
+
+
+def far_thresholds(design: ArmDesign, env: Envelopes | None = None) -> np.ndarray:
+    """Per group, a distance of joint 6 from joint 1 beyond which the group never meets.
+
+    For a group between l0..l2 and l4..l6: the two links' ``link_reach`` and the clearance.
+    Joint 6 is fixed by the target (p - a6 e), so when it lies farther from joint 1 than
+    that, every piece pair of the group has its bounding spheres apart at every
+    configuration, and the IK need not test the group on any branch.
+
+    Parameters
+    ----------
+    design : ArmDesign
+    env : Envelopes, optional
+
+    Returns
+    -------
+    ndarray, shape (g,)
+        Metres; inf for the other groups.
+    """
+    env = envelopes(design) if env is None else env
+    reach = link_reach(design, env)
+    far = np.full(len(env.groups), np.inf)
+    for g, (bi, bj, _, _) in enumerate(env.groups):
+        la, lb = int(env.link[bi]), int(env.link[bj])
+        if la <= 2 and lb >= 4:
+            far[g] = (reach[la] + reach[lb] + env.clearance) * (1.0 + 1e-12)
+    return far
+
+
+@functools.lru_cache(maxsize=64)
 def kernel_coefficients(design: ArmDesign) -> np.ndarray:
     """``motion_coefficients`` of the design, cached and read-only, as the kernels take them."""
     coef = motion_coefficients(design)

@@ -25,7 +25,7 @@ from handarm.ik.exact import _model
 def _claim(design, p, e, branch, ua, ub):
     """(hit, free) of the kernel's test of the stretch [ua, ub] on ``branch``."""
     a = design.lengths
-    _, pi, pf, groups, _, rows, c, coef, _ = _model(design)
+    _, pi, pf, groups, _, rows, c, coef, _, _ = _model(design)
     st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = PR.printed_scratch(len(pi))
     hn = math.hypot(e[0], e[1])
     dx, dy = branch[0] * e[0] / hn, branch[0] * e[1] / hn
@@ -102,6 +102,39 @@ def test_stretch_claims_hold_at_every_sample(seed):
     assert min(counts.values()) >= 20, counts  # every kind of claim was put to the test
 
 
+@pytest.mark.parametrize("seed", [0, 2])
+def test_claims_hold_where_l2_meets_l4(seed):
+    """l2 and l4 are tested with their motions relative to l3 (their common slide along L
+    cancels): stretches at and beside configurations where l2 and l4 touch, each claim held
+    against ``collision_free`` at every sample."""
+    rng = np.random.default_rng(seed)
+    design = handarm.ArmDesign()
+    if seed:  # other lengths (a short l3: l2 and l4 meet in 2 % of the box)
+        design = design.replace(link_lengths=rng.uniform(0.035, 0.065, 7))
+    pair = handarm.collision.LINK_PAIRS.index((2, 4))
+    q = rng.uniform(design.lower, design.upper, (40000, 6))
+    hits = handarm.collision.printed_collisions(design, q)
+    q = q[hits[:, pair]][:40]
+    assert len(q) >= 20
+    branch, u = ik.branch_of(design, q)
+    p, e = handarm.forward(design, q)
+    counts = {"hit": 0, "free": 0, "unsure": 0}
+    for k in range(len(q)):
+        if math.hypot(e[k, 0], e[k, 1]) < 1e-3:
+            continue
+        azimuth = math.atan2(e[k, 1], e[k, 0])
+        for width in (3e-5, 3e-4, 1e-3, 3e-3):
+            for ua in u[k] + width * np.array([-30.0, -8.0, -3.0, -1.0, -0.5, 0.1, 2.0, 7.0, 30.0]):
+                ub = ua + width
+                uu = np.linspace(ua, ub, 64)
+                _, ok = ik.configurations_along(design, p[k], e[k], branch[k], uu, azimuth=azimuth)
+                if not ok.all():
+                    continue
+                hit, free = _check(design, p[k], e[k], tuple(branch[k]), ua, ub, azimuth)
+                counts["hit" if hit else "free" if free else "unsure"] += 1
+    assert min(counts.values()) >= 10, counts
+
+
 def test_a_contact_held_all_along_at_l1s_joint_is_decided_on_a_wide_stretch():
     """A direction on the edge of the solvable set: l1's hub touches l3 all along the range.
 
@@ -162,9 +195,9 @@ def test_a_sliding_piece_sweeps_its_lengthened_segment_and_holds_its_shortened_o
         k = 0.0 if den == 0.0 else min(1.0, max(0.0, float((p - a) @ ab) / den))
         return float(np.linalg.norm(p - a - k * ab))
 
-    gx0, gy0, gx1, gy1, gr = _swept(xy, pf, 0, 1.0)
+    gx0, gy0, gx1, gy1, gr = _swept(xy, pf, 0, 1.0, 7)
     if dist(a + t * e * u, b + t * e * u, pt) <= r:
         assert dist(np.array([gx0, gy0]), np.array([gx1, gy1]), pt) <= gr + 1e-12
-    sx0, sy0, sx1, sy1, sr = _swept(xy, pf, 0, -1.0)
+    sx0, sy0, sx1, sy1, sr = _swept(xy, pf, 0, -1.0, 7)
     if dist(np.array([sx0, sy0]), np.array([sx1, sy1]), pt) <= sr:
         assert dist(a + t * e * u, b + t * e * u, pt) <= r + 1e-12

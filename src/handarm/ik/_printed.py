@@ -321,14 +321,17 @@ def printed_scratch(n_pieces):
 
 
 @nb.njit(**JIT)
-def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n_out):
+def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n_out, sure, mask0):
     """Append to ``out[n_out:]`` the maximal stretches of [lo, hi] free under the model.
 
     [lo, hi] is a stretch where the joint limits hold on this branch. Stretches closer than
-    MERGE_GAP are one. Returns the new count, or -1 if ``out`` (or the stack) is full.
+    MERGE_GAP are one. ``sure[k]`` says whether range k is free at every point: it is made
+    of certified stretches only, with no gap merged over and no stretch narrower than TOL
+    (decided at its middle alone). ``mask0``: the groups of piece pairs to test (the others
+    never meet on this target). Returns the new count, or -1 if ``out`` (or the stack) is
+    full.
     """
     pi, pf, groups, rows, c, coef = mdl[1], mdl[2], mdl[3], mdl[5], mdl[6], mdl[7]
-    n_groups = groups.shape[0]
     st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch
     # where an absolute angle is stationary: its largest change over a stretch holding such
     # a point may be there rather than at the stretch's ends
@@ -339,7 +342,7 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
     ok = nbk >= 0
     if ok:
         st_u[0, 0], st_u[0, 1] = lo, hi
-        st_mask[0] = (1 << n_groups) - 1
+        st_mask[0] = mask0
         top = 1
     else:
         top = 0  # cannot happen inside a reachable stretch; stay safe
@@ -365,9 +368,15 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
             continue  # an invalid stretch: the open range (if any) ends before it
         if unsure == 0:
             # a free stretch: extend the open range or start one
+            joins = n_out > first and ua - out[n_out - 1, 1] <= MERGE_GAP
+            gap = joins and ua > out[n_out - 1, 1]
             n_out = add_free(out, first, n_out, ua, ub)
             if n_out < 0:
                 return -1
+            if not joins:
+                sure[n_out - 1] = True
+            if narrow or gap:
+                sure[n_out - 1] = False
             continue
         if top + 2 > st_u.shape[0]:
             return -1

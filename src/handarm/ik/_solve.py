@@ -149,6 +149,7 @@ def _workspace(lower, upper, n_pieces):
         np.empty(MAX_CAND, np.int8),
         np.empty(WS_SIZE),
         np.empty((MAX_SUB, 2)),
+        np.empty(MAX_SUB, np.bool_),
         printed_scratch(n_pieces),
     )
 
@@ -165,7 +166,8 @@ def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi
     ``mdl`` is the collision model, one flat tuple (numba's parallel loops take no nested
     tuples): paper, then the envelopes as ``handarm.collision.kernel_env`` gives them
     (``mdl[1:7]``: pi, pf, groups, lp_groups, rows, clearance), their motion coefficients,
-    the narrowest range counted.
+    the groups' far thresholds (``handarm.collision.far_thresholds``), the narrowest range
+    counted.
     """
     work = _workspace(lower, upper, mdl[1].shape[0])
     return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl)
@@ -224,12 +226,14 @@ def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, paper):
 
 
 @nb.njit(**JIT)
-def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc):
+def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc, sure):
     """Configuration at the range's midpoint into q; returns False if none is usable.
 
     Where a constraint only touches its bound inside a range (a tangency: valid on both
     sides), the midpoint can sit on it and fail by one rounding step; then the nearest of
-    the points at 1/4, 3/4, 1/8, 7/8, ... of the range that passes is used.
+    the points at 1/4, 3/4, 1/8, 7/8, ... of the range that passes is used. ``sure``: the
+    printed-link model holds on the whole range (``printed_ranges``), so only the limits
+    are checked.
     """
     frac = 0.5
     step = 0.25
@@ -238,7 +242,7 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc)
         if _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, q) and _valid_at(
             fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, mdl[0]
         ):
-            if mdl[0] or free_at(q, u, a, mdl[1:7], mdl[7], sc[3], sc[4], sc[5], sc[6]):
+            if mdl[0] or sure or free_at(q, u, a, mdl[1:7], mdl[7], sc[3], sc[4], sc[5], sc[6]):
                 return True
         # 0.5, 0.25, 0.75, 0.125, 0.875, ...
         if attempt % 2 == 0:
@@ -250,11 +254,27 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc)
 
 
 @nb.njit(**JIT)
+def _near_groups(p, e, a, far):
+    """Mask of the groups of piece pairs that can meet for this target (see ``far_thresholds``).
+
+    Groups between l0..l2 and l4..l6 whose threshold joint 6 lies beyond are left out.
+    """
+    x, y, z = p[0] - a[6] * e[0], p[1] - a[6] * e[1], p[2] - a[6] * e[2]
+    dist = math.sqrt(x * x + y * y + z * z)
+    mask = 0
+    for g in range(far.shape[0]):
+        if not dist > far[g]:
+            mask |= 1 << g
+    return mask
+
+
+@nb.njit(**JIT)
 def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
-    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sc = work
+    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
     paper = mdl[0]
-    min_width = mdl[8]
+    min_width = mdl[9]
     cap = out_q.shape[0]
+    mask = _near_groups(p, e, a, mdl[8])
     hx, hy = e[0], e[1]
     hn = math.sqrt(hx * hx + hy * hy)
     if hn < VERTICAL_EPS:
@@ -339,10 +359,11 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
                         elbow_b = 1.0 if eb == 0 else -1.0
                         if paper:
                             sub[0, 0], sub[0, 1] = lo, hi
+                            sure[0] = True
                             n_sub = 1
                         else:
                             n_sub = printed_ranges(
-                                fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, sc, sub, 0
+                                fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, sc, sub, 0, sure, mask
                             )
                             if n_sub < 0:
                                 overflow = True
@@ -350,7 +371,20 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
                         for k_sub in range(n_sub):
                             r_lo, r_hi = sub[k_sub, 0], sub[k_sub, 1]
                             if r_hi - r_lo < min_width or not _representative(
-                                fr, dx, dy, r_lo, r_hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc
+                                fr,
+                                dx,
+                                dy,
+                                r_lo,
+                                r_hi,
+                                elbow_b,
+                                elbow_e,
+                                a,
+                                lb,
+                                lt,
+                                q,
+                                mdl,
+                                sc,
+                                sure[k_sub],
                             ):
                                 continue
                             if total < cap:

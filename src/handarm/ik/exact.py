@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from handarm._checks import check_array, check_design, check_joints
-from handarm.collision import kernel_coefficients, kernel_env
+from handarm.collision import kernel_coefficients, kernel_env, kernel_far
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
 from handarm.ik._common import VERTICAL_EPS, wrap
@@ -277,7 +277,13 @@ def _model(design: ArmDesign, min_width: float = 0.0) -> tuple:
     """
     paper = design.collision_model == "paper"
     source = _DEFAULT_SHAPES if paper else design
-    return (paper, *kernel_env(source), kernel_coefficients(source), float(min_width))
+    return (
+        paper,
+        *kernel_env(source),
+        kernel_coefficients(source),
+        kernel_far(source),
+        float(min_width),
+    )
 
 
 _DEFAULT_SHAPES = ArmDesign()
