@@ -310,7 +310,7 @@ def test_straight_arm_is_an_exact_single_point(paper):
 def test_the_searches_count_as_count_solutions_does(paper):
     """Degradation counts its own directions without the input checks: same answers for
     random (unnormalised) directions, vertical ones, and a point on joint 1's axis."""
-    from handarm.ik.degrade import _solvable
+    from handarm.ik.degrade import _first_solvable, _solvable
 
     rng = np.random.default_rng(8)
     q = valid_configurations(paper, rng, 12)
@@ -320,4 +320,36 @@ def test_the_searches_count_as_count_solutions_does(paper):
     for p in P:
         want = solvable(paper, p, dirs)
         np.testing.assert_array_equal(_solvable(paper, p, dirs), want)
+        first = int(np.argmax(want)) if want.any() else -1
+        assert _first_solvable(paper, p, dirs) == first
     assert 0 < sum(solvable(paper, p, dirs).sum() for p in P) < len(P) * len(dirs)
+
+
+def test_level4_search_stops_each_side_at_the_best_answer(paper, monkeypatch):
+    """The level-4 search stops a side once it cannot beat the best grid angle found: the
+    same nearest direction as searching every side of both circles out to the end, for far
+    fewer directions."""
+    from handarm.ik import degrade
+
+    tested = []
+    first = degrade._first_solvable
+
+    def counting(design, p, dirs):
+        tested.append(len(np.atleast_2d(dirs)))
+        return first(design, p, dirs)
+
+    monkeypatch.setattr(degrade, "_first_solvable", counting)
+    P, E = level4_targets(paper, 12, seed=7)
+    cost = {True: 0, False: 0}
+    found = 0
+    for p, e in zip(P, E, strict=True):
+        best = {}
+        for prune in (True, False):
+            tested.clear()
+            cands = degrade._circle_candidates(paper, p, e, None, prune=prune)
+            cost[prune] += sum(tested)
+            best[prune] = min((float(angle(v, e)) for v in cands), default=math.inf)
+        assert best[True] == pytest.approx(best[False], abs=1e-12)
+        found += math.isfinite(best[True])
+    assert found >= 6
+    assert cost[True] < 0.5 * cost[False], cost

@@ -146,7 +146,7 @@ def _count_target(p, e, psi, a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_w
     placed configuration, exactly as ``scene_gaps`` does). Returns -1 on a full buffer.
     """
     q, br, iv, used, fr, sub, sc, qs, frames, gaps = bufs
-    n = _solve_any_azimuth(p, e, psi, a, q, br, iv, used, work, mdl)
+    n = _solve_any_azimuth(p, e, psi, a, q, br, iv, used, work, mdl, False)
     if n < 0 or n > q.shape[0]:
         return -1
     h = math.hypot(e[0], e[1])

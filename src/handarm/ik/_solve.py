@@ -170,20 +170,26 @@ def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi
     counted.
     """
     work = _workspace(lower, upper, mdl[1].shape[0])
-    return _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl)
+    return _solve_any_azimuth(
+        p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl, False
+    )
 
 
 @nb.njit(**JIT)
-def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl):
+def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl, first):
+    """``_solve_target`` at e's azimuth, or at the first that has a solution if e is vertical.
+
+    ``first``: stop at the first solution range found (returns 1 if there is one).
+    """
     if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
         psi_used[0] = math.atan2(e[1], e[0])
-        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work, mdl)
+        return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work, mdl, first)
     # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
     n_steps = int(math.ceil(0.5 * PI / VERTICAL_STEP))
     for k in range(2 * n_steps + 1):
         off = ((k + 1) // 2) * VERTICAL_STEP * (1.0 if k % 2 == 1 else -1.0)
         psi = wrap(psi_vertical + off)
-        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work, mdl)
+        n = _solve_target(p, e, psi, a, out_q, out_br, out_iv, work, mdl, first)
         if n != 0:
             psi_used[0] = psi
             return n
@@ -269,7 +275,7 @@ def _near_groups(p, e, a, far):
 
 
 @nb.njit(**JIT)
-def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
+def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first):
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
     paper = mdl[0]
     min_width = mdl[9]
@@ -396,6 +402,8 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl):
                                 out_iv[total, 0] = r_lo
                                 out_iv[total, 1] = r_hi
                             total += 1
+                            if first:
+                                return total
                     if b_hi < t_hi:
                         i += 1
                     else:
@@ -428,6 +436,7 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
                 psi_used[i : i + 1],
                 work,
                 mdl,
+                False,
             )
             # pad the unused rows here: the caller's arrays are left uninitialised
             for r in range(max(counts[i], 0), out_q.shape[1]):
@@ -525,7 +534,7 @@ def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
         used = np.empty(1)
         for i in range(b * block, min(n, (b + 1) * block)):
             counts[i] = _solve_any_azimuth(
-                P[i], E[i], psi_vertical[i], a, q, br, iv, used, work, mdl
+                P[i], E[i], psi_vertical[i], a, q, br, iv, used, work, mdl, False
             )
 
 
@@ -535,3 +544,52 @@ _COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardle
 #: thread pool, whose wake-up costs milliseconds on a busy machine (degradation counts a
 #: direction or a few at a time, hundreds of times per target).
 count_many_serial = nb.njit(**JIT)(getattr(count_many, "py_func", count_many))
+
+
+@nb.njit(**JIT)
+def _first_scratch(lower, upper, mdl):
+    """Scratch space of the calling thread for ``_has_range``."""
+    work = _workspace(lower, upper, mdl[1].shape[0])
+    return (
+        work,
+        np.empty((_COUNT_CAP, 6)),
+        np.empty((_COUNT_CAP, 3), np.int8),
+        np.empty((_COUNT_CAP, 2)),
+        np.empty(1),
+    )
+
+
+@nb.njit(**JIT)
+def _has_range(p, e, psi_vertical, a, mdl, sc):
+    """1 if the target has a solution range, 0 if not, -1 if a buffer overflowed.
+
+    It stops at the first range (``_solve_any_azimuth(..., first=True)``): whether a
+    direction is solvable costs a fraction of counting its ranges.
+    """
+    work, q, br, iv, used = sc
+    return _solve_any_azimuth(p, e, psi_vertical, a, q, br, iv, used, work, mdl, True)
+
+
+@nb.njit(**JIT)
+def first_solvable(P, E, psi_vertical, a, lower, upper, mdl):
+    """Index of the first target (in order) that has a solution range, or -1.
+
+    ``-2 - i`` if a buffer overflowed at target i. On the calling thread: the searches of
+    degradation ask whether, in order along a circle, not how many.
+    """
+    sc = _first_scratch(lower, upper, mdl)
+    for i in range(P.shape[0]):
+        n = _has_range(P[i], E[i], psi_vertical[i], a, mdl, sc)
+        if n > 0:
+            return i
+        if n < 0:
+            return -2 - i
+    return -1
+
+
+@nb.njit(**JIT)
+def solvable_rows(P, E, psi_vertical, a, lower, upper, mdl, out):
+    """``out[i]``: ``_has_range`` of target i, on the calling thread."""
+    sc = _first_scratch(lower, upper, mdl)
+    for i in range(P.shape[0]):
+        out[i] = _has_range(P[i], E[i], psi_vertical[i], a, mdl, sc)

@@ -86,8 +86,19 @@ def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     scene = _SCENE.get()
     if scene is None:
         E = np.ascontiguousarray(dirs / np.linalg.norm(dirs, axis=1, keepdims=True))
-        return S.count_checked(design, P, E, S.vertical_azimuth(P)) > 0
+        return S.solvable_checked(design, P, E, S.vertical_azimuth(P))
     return S.count_solutions(design, P, dirs, scene=scene[0], clearance=scene[1]) > 0
+
+
+def _first_solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> int:
+    """Index of the first of the unit directions ``dirs`` solvable at p, or -1."""
+    if _SCENE.get() is not None:
+        ok = _solvable(design, p, dirs)
+        return int(np.argmax(ok)) if ok.any() else -1
+    dirs = np.atleast_2d(dirs)
+    P = np.broadcast_to(p, dirs.shape).copy()
+    E = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    return S.first_solvable_checked(design, P, E, S.vertical_azimuth(P))
 
 
 def _solve_exact(design: ArmDesign, p, e, current) -> IKResult:
@@ -146,25 +157,55 @@ def closest_direction_on_circle(design, p, make_dir, theta0):
         the first solvable grid angle going out, refined by bisection to the boundary
         (``ANGLE_TOL``).
     """
-    found = []
-    # the grid going out to pi in blocks, each tested in one call: the first block holding
-    # a solvable angle ends the side (the rest of the circle is farther). Blocks start
-    # small: the directions just beyond the first solvable one cost a full solve each
+    return [theta0 + x for _, x in _nearest_on_circles(design, p, [(make_dir, theta0, abs)], False)]
+
+
+def _nearest_on_circles(design, p, circles, prune=True):
+    """The nearest solvable angle on each side of each circle, as (circle index, offset).
+
+    ``circles``: (make_dir, theta0, cost) with ``cost(|offset|)`` the angle from the circle's
+    start direction, growing with |offset|. Every side goes out from theta0 on the grid in
+    blocks, all sides in turn, each block tested in one call that stops at its first
+    solvable direction (the rest of the side is farther). With ``prune`` a side stops as
+    soon as nothing it could still find can cost less than the cheapest grid angle found
+    so far, on any side (bisection moves an angle by less than one grid step): every side
+    pays only for the angles up to the best answer, not the whole circle. The sides left
+    are refined by bisection to the boundary (``ANGLE_TOL``).
+    """
     grid = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
     blocks = np.split(grid, _BLOCK_ENDS[_BLOCK_ENDS < len(grid)])
-    for side in (1.0, -1.0):
-        for offs in blocks:
-            offs = side * offs
-            ok = _solvable(design, p, make_dir(theta0 + offs))
-            if ok.any():
-                k = int(np.argmax(ok))
-                good = _bisect(
-                    lambda x: bool(_solvable(design, p, make_dir(np.array([theta0 + x])))[0]),
-                    offs[k],
-                    offs[k] - side * _FINE_STEP,
-                )
-                found.append(theta0 + good)
-                break
+    sides = [(c, side) for c in range(len(circles)) for side in (1.0, -1.0)]
+    hits = {}  # (circle, side) -> first solvable grid offset
+    open_sides = list(sides)
+    best = math.inf  # cost of the cheapest grid angle found
+
+    def floor(c, x):  # the least cost a side can reach from grid offset x on
+        return circles[c][2](max(abs(x) - _FINE_STEP, 0.0))
+
+    for offs in blocks:
+        for c, side in list(open_sides):
+            if prune and floor(c, offs[0]) > best:
+                open_sides.remove((c, side))
+                continue
+            make_dir, theta0, cost = circles[c]
+            k = _first_solvable(design, p, make_dir(theta0 + side * offs))
+            if k >= 0:
+                hits[(c, side)] = side * offs[k]
+                best = min(best, cost(offs[k]))
+                open_sides.remove((c, side))
+        if not open_sides:
+            break
+    found = []
+    for (c, side), x in hits.items():
+        if prune and floor(c, x) > best:
+            continue
+        make_dir, theta0, _ = circles[c]
+        good = _bisect(
+            lambda y, m=make_dir, t=theta0: bool(_solvable(design, p, m(np.array([t + y])))[0]),
+            x,
+            x - side * _FINE_STEP,
+        )
+        found.append((c, good))
     return found
 
 
@@ -308,8 +349,12 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
-def _circle_candidates(design, p, e, current) -> list[np.ndarray]:
-    """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle)."""
+def _circle_candidates(design, p, e, current, prune=True) -> list[np.ndarray]:
+    """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle).
+
+    With ``prune`` only the candidates that can be the nearest to e (see
+    ``_nearest_on_circles``), else the nearest on each side of each circle.
+    """
     pitch, yaw = _pitch_yaw(e)
     if math.hypot(e[0], e[1]) < KEEP_TOL:  # vertical e: its "yaw" is L's azimuth
         yaw = S._azimuth(p, e, current)[1]
@@ -327,16 +372,16 @@ def _circle_candidates(design, p, e, current) -> list[np.ndarray]:
         c = math.cos(pitch)
         return np.stack([c * np.cos(ph), c * np.sin(ph), np.full_like(ph, math.sin(pitch))], -1)
 
-    cands = [
-        along_pitch(np.array([t]))[0]
-        for t in closest_direction_on_circle(design, p, along_pitch, pitch)
-    ]
-    if math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
-        cands += [
-            along_yaw(np.array([t]))[0]
-            for t in closest_direction_on_circle(design, p, along_yaw, yaw)
-        ]
-    return cands
+    cos_pitch = math.cos(pitch)
+
+    def yaw_cost(x):  # angle from e of the direction x (rad) of yaw away on its small circle
+        return 2.0 * math.asin(min(1.0, cos_pitch * math.sin(0.5 * x)))
+
+    circles = [(along_pitch, pitch, float)]  # a great circle: the angle is the offset
+    if cos_pitch > KEEP_TOL:  # a vertical e has no pitch-keeping circle
+        circles.append((along_yaw, yaw, yaw_cost))
+    found = _nearest_on_circles(design, p, circles, prune)
+    return [circles[c][0](np.array([circles[c][1] + x]))[0] for c, x in found]
 
 
 def degrade_target(
@@ -373,7 +418,7 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
             return result
     seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
     if order == "angle":
-        seeds += _circle_candidates(design, p, e, current)
+        seeds += _circle_candidates(design, p, e, current, prune=False)
     result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
     if order == "angle" and result is not None and keeps(e, result.achieved_direction):
         result = dataclasses.replace(result, reached_dof=4)

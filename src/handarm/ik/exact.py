@@ -526,6 +526,32 @@ def count_checked(
     return counts
 
 
+def _targets_args(design: ArmDesign, P, E, psi, min_width: float) -> tuple:
+    """Checked targets and the design as the kernels take them."""
+    P, E = np.ascontiguousarray(P), np.ascontiguousarray(E)
+    return P, E, psi, design.lengths, design.lower, design.upper, _model(design, min_width)
+
+
+def solvable_checked(design: ArmDesign, P, E, psi, min_width: float = 0.0) -> np.ndarray:
+    """Whether each checked target (see ``count_checked``) has a solution range, shape (N,).
+
+    The same as ``count_checked(...) > 0``, at the cost of finding one range, not all.
+    """
+    out = np.zeros(len(P), np.int64)
+    K.solvable_rows(*_targets_args(design, P, E, psi, min_width), out)
+    if np.any(out < 0):
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    return out > 0
+
+
+def first_solvable_checked(design: ArmDesign, P, E, psi, min_width: float = 0.0) -> int:
+    """Index of the first checked target (in order) that has a solution range, or -1."""
+    i = int(K.first_solvable(*_targets_args(design, P, E, psi, min_width)))
+    if i < -1:
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    return i
+
+
 def configurations_along(
     design: ArmDesign, p, e, branch, u, *, azimuth=None
 ) -> tuple[np.ndarray, np.ndarray]:
