@@ -79,14 +79,27 @@ KEEP_TOL = 1e-9
 _SCENE: contextvars.ContextVar = contextvars.ContextVar("degrade_scene", default=None)
 
 
+def _targets(p: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(P, E, psi) of the directions ``dirs`` at p, as the checked counts take them.
+
+    Small arrays, built by hand: the searches make thousands of these per target.
+    """
+    dirs = np.atleast_2d(dirs)
+    n = len(dirs)
+    P = np.empty((n, 3))
+    P[:] = p
+    E = dirs / np.sqrt(np.einsum("ij,ij->i", dirs, dirs))[:, None]
+    psi = 0.0 if math.hypot(p[0], p[1]) < 1e-12 else math.atan2(p[1], p[0])
+    return P, E, np.full(n, psi)  # S.vertical_azimuth of P
+
+
 def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """Which of the unit directions ``dirs`` have an exact solution at p (p checked)."""
-    dirs = np.atleast_2d(dirs)
-    P = np.broadcast_to(p, dirs.shape).copy()
     scene = _SCENE.get()
     if scene is None:
-        E = np.ascontiguousarray(dirs / np.linalg.norm(dirs, axis=1, keepdims=True))
-        return S.solvable_checked(design, P, E, S.vertical_azimuth(P))
+        return S.solvable_checked(design, *_targets(p, dirs))
+    dirs = np.atleast_2d(dirs)
+    P = np.broadcast_to(p, dirs.shape).copy()
     return S.count_solutions(design, P, dirs, scene=scene[0], clearance=scene[1]) > 0
 
 
@@ -95,10 +108,7 @@ def _first_solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> int:
     if _SCENE.get() is not None:
         ok = _solvable(design, p, dirs)
         return int(np.argmax(ok)) if ok.any() else -1
-    dirs = np.atleast_2d(dirs)
-    P = np.broadcast_to(p, dirs.shape).copy()
-    E = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
-    return S.first_solvable_checked(design, P, E, S.vertical_azimuth(P))
+    return S.first_solvable_checked(design, *_targets(p, dirs))
 
 
 def _solve_exact(design: ArmDesign, p, e, current) -> IKResult:
@@ -125,7 +135,14 @@ def _valid(design: ArmDesign, q) -> bool:
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Angle between unit vectors, robust near 0 and pi."""
-    return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+    if a.ndim == 1 and b.ndim == 1:  # one pair: the searches ask this thousands of times
+        d0, d1, d2 = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+        s0, s1, s2 = a[0] + b[0], a[1] + b[1], a[2] + b[2]
+        return 2.0 * math.atan2(
+            math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        )
+    d, s = a - b, a + b
+    return 2.0 * np.arctan2(np.sqrt(np.sum(d * d, axis=-1)), np.sqrt(np.sum(s * s, axis=-1)))
 
 
 def _bisect(test, good: float, bad: float, tol: float = ANGLE_TOL) -> float:

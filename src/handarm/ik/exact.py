@@ -10,6 +10,7 @@ representative solution.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -269,6 +270,7 @@ def follow_configuration(
     return best
 
 
+@functools.lru_cache(maxsize=64)
 def _model(design: ArmDesign, min_width: float = 0.0) -> tuple:
     """The collision model as the kernels take it (see ``_solve.solve_target``).
 
