@@ -429,6 +429,10 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     for q in _configs_reaching(design, p, current, cloud=False):
         if float(_angle(forward(design, q)[1], e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
+    if math.sqrt(float(p @ p)) > float(np.sum(design.lengths[1:])) * (1.0 + 1e-12):
+        # beyond the stretched arm's reach from joint 1: no direction is solvable at p,
+        # so levels 4 and 3 have nothing to find
+        return _two_dof(design, p, e, current)
     if order == "paper":
         result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
         if result is not None:
