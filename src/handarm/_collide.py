@@ -172,7 +172,8 @@ def _placed(c, s, ox, oy, sx0, sy0, sx1, sy1, z0, z1, plane, dx, dy, fx, fy):
 
 
 @nb.njit(**JIT)
-def _point_segment(px, py, ax, ay, bx, by):
+def _point_segment2(px, py, ax, ay, bx, by):
+    """Squared distance from a point to a closed segment."""
     dx, dy = bx - ax, by - ay
     den = dx * dx + dy * dy
     t = 0.0
@@ -180,12 +181,15 @@ def _point_segment(px, py, ax, ay, bx, by):
         t = ((px - ax) * dx + (py - ay) * dy) / den
         t = min(1.0, max(0.0, t))
     ex, ey = px - (ax + t * dx), py - (ay + t * dy)
-    return math.sqrt(ex * ex + ey * ey)
+    return ex * ex + ey * ey
 
 
 @nb.njit(**JIT)
-def segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
-    """Distance between two closed segments (0 when they cross)."""
+def segment_distance2(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
+    """Squared distance between two closed segments (0 when they cross).
+
+    Squared, so that the model's test (closer than a reach) takes no square root.
+    """
     d1 = (b1x - b0x) * (a0y - b0y) - (b1y - b0y) * (a0x - b0x)
     d2 = (b1x - b0x) * (a1y - b0y) - (b1y - b0y) * (a1x - b0x)
     d3 = (a1x - a0x) * (b0y - a0y) - (a1y - a0y) * (b0x - a0x)
@@ -194,10 +198,10 @@ def segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
         (d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)
     ):
         return 0.0
-    d = _point_segment(a0x, a0y, b0x, b0y, b1x, b1y)
-    d = min(d, _point_segment(a1x, a1y, b0x, b0y, b1x, b1y))
-    d = min(d, _point_segment(b0x, b0y, a0x, a0y, a1x, a1y))
-    return min(d, _point_segment(b1x, b1y, a0x, a0y, a1x, a1y))
+    d = _point_segment2(a0x, a0y, b0x, b0y, b1x, b1y)
+    d = min(d, _point_segment2(a1x, a1y, b0x, b0y, b1x, b1y))
+    d = min(d, _point_segment2(b0x, b0y, a0x, a0y, a1x, a1y))
+    return min(d, _point_segment2(b1x, b1y, a0x, a0y, a1x, a1y))
 
 
 @nb.njit(**JIT)
@@ -252,9 +256,10 @@ def _collide_placed(
 ):
     """Whether two placed pieces (segment, grown radius, slab, plane) collide."""
     if pa == pb:
-        if ra + rb + c < 0.0:
+        reach = ra + rb + c
+        if reach < 0.0:
             return False
-        return segment_distance(ax0, ay0, ax1, ay1, bx0, by0, bx1, by1) < ra + rb + c
+        return segment_distance2(ax0, ay0, ax1, ay1, bx0, by0, bx1, by1) < reach * reach
     if pa == 0:
         return _cross_collide(
             ax0, ay0, ax1, ay1, ra, az0, az1, bx0, by0, bx1, by1, rb, bz0, bz1, dx, dy, fx, fy, c
