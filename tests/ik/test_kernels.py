@@ -111,3 +111,29 @@ def test_polish_kernel_reaches_reachable_points_within_the_limits():
         near = np.clip(out + rng.normal(scale=1e-3, size=(2000, 6)), lower, upper)
         dist = np.linalg.norm(handarm.forward(design, near)[0] - target, axis=1)
         assert dist.min() > err - 1e-9
+
+
+def test_no_two_kernels_share_a_python_function():
+    """numba's cache keys a kernel by its Python function: two dispatchers built from one
+    function (a parallel and a serial build, say) share one cache entry, and in every later
+    process both load whichever was saved last. ``count_many`` loaded its serial twin that
+    way and counted on one core."""
+    import importlib
+    import pkgutil
+
+    import numba
+
+    import handarm
+
+    owners = {}
+    for info in pkgutil.walk_packages(handarm.__path__, "handarm."):
+        if info.name.startswith("handarm.cli") or info.name.endswith("__main__"):
+            continue
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if isinstance(obj, numba.core.registry.CPUDispatcher):
+                # one dispatcher imported under several names is fine; two are not
+                owners.setdefault(id(obj.py_func), {})[id(obj)] = f"{info.name}.{name}"
+    shared = [sorted(v.values()) for v in owners.values() if len(v) > 1]
+    assert not shared, shared
+    assert len(owners) > 50  # the walk found the kernels

@@ -518,6 +518,21 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
 
 #: Targets per parallel task of ``count_many``.
 COUNT_BLOCK = 256
+_COUNT_CAP = 1  # the counts keep no solution rows; the count is exact regardless
+
+
+@nb.njit(**JIT)
+def _count_rows(P, E, psi_vertical, a, lower, upper, counts, mdl, start, stop):
+    """Number of solution ranges of targets ``start..stop``, on this thread."""
+    work = _workspace(lower, upper, mdl[1].shape[0])
+    q = np.empty((_COUNT_CAP, 6))
+    br = np.empty((_COUNT_CAP, 3), np.int8)
+    iv = np.empty((_COUNT_CAP, 2))
+    used = np.empty(1)
+    for i in range(start, stop):
+        counts[i] = _solve_any_azimuth(
+            P[i], E[i], psi_vertical[i], a, q, br, iv, used, work, mdl, False
+        )
 
 
 @nb.njit(parallel=True, **JIT)
@@ -527,23 +542,21 @@ def count_many(P, E, psi_vertical, a, lower, upper, counts, mdl):
     block = COUNT_BLOCK
     n_blocks = (n + block - 1) // block
     for b in nb.prange(n_blocks):
-        work = _workspace(lower, upper, mdl[1].shape[0])
-        q = np.empty((_COUNT_CAP, 6))
-        br = np.empty((_COUNT_CAP, 3), np.int8)
-        iv = np.empty((_COUNT_CAP, 2))
-        used = np.empty(1)
-        for i in range(b * block, min(n, (b + 1) * block)):
-            counts[i] = _solve_any_azimuth(
-                P[i], E[i], psi_vertical[i], a, q, br, iv, used, work, mdl, False
-            )
+        _count_rows(
+            P, E, psi_vertical, a, lower, upper, counts, mdl, b * block, min(n, (b + 1) * block)
+        )
 
 
-_COUNT_CAP = 1  # count_many keeps no solution rows; the count is exact regardless
+@nb.njit(**JIT)
+def count_many_serial(P, E, psi_vertical, a, lower, upper, counts, mdl):
+    """``count_many`` on the calling thread, for batches of one block.
 
-#: ``count_many`` on the calling thread, for batches of one block: they gain nothing from the
-#: thread pool, whose wake-up costs milliseconds on a busy machine (degradation counts a
-#: direction or a few at a time, hundreds of times per target).
-count_many_serial = nb.njit(**JIT)(getattr(count_many, "py_func", count_many))
+    They gain nothing from the thread pool, whose wake-up costs milliseconds on a busy
+    machine. (A function of its own: compiled from ``count_many``'s Python function, it
+    shared that kernel's cache entry, and in every later process the parallel kernel loaded
+    this serial code, so counts and workspace maps ran on one core.)
+    """
+    _count_rows(P, E, psi_vertical, a, lower, upper, counts, mdl, 0, P.shape[0])
 
 
 @nb.njit(**JIT)
