@@ -181,6 +181,23 @@ def _count_target(p, e, psi, a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_w
     return count
 
 
+@nb.njit(**JIT)
+def count_scratch(n_pieces, n_obs):
+    """The buffers of ``_count_target`` for one thread (at least one obstacle's worth)."""
+    return (
+        np.empty((_SCENE_CAP, 6)),
+        np.empty((_SCENE_CAP, 3), np.int8),
+        np.empty((_SCENE_CAP, 2)),
+        np.empty(1),
+        np.empty(FRAMES_SIZE),
+        np.empty((SPLIT_CAP, 2)),
+        obstacle_scratch(n_pieces * max(n_obs, 1)),
+        np.empty(6),
+        np.zeros((N_FRAMES, 4)),
+        np.empty(max(n_obs, 1)),
+    )
+
+
 @nb.njit(parallel=True, **JIT)
 def count_many_in_scene(P, E, psi, a, lower, upper, counts, mdl, pi, pf, coef, n_pieces, obs, c):
     """``count_many`` with a scene: clear stretches of every target's ranges, in parallel."""
@@ -190,18 +207,7 @@ def count_many_in_scene(P, E, psi, a, lower, upper, counts, mdl, pi, pf, coef, n
     min_width = mdl[-1]
     for b in nb.prange(n_blocks):
         work = _workspace(lower, upper, mdl[1].shape[0])
-        bufs = (
-            np.empty((_SCENE_CAP, 6)),
-            np.empty((_SCENE_CAP, 3), np.int8),
-            np.empty((_SCENE_CAP, 2)),
-            np.empty(1),
-            np.empty(FRAMES_SIZE),
-            np.empty((SPLIT_CAP, 2)),
-            obstacle_scratch(n_pieces * obs.shape[0]),
-            np.empty(6),
-            np.zeros((N_FRAMES, 4)),
-            np.empty(obs.shape[0]),
-        )
+        bufs = count_scratch(n_pieces, obs.shape[0])
         for i in range(b * block, min(n, (b + 1) * block)):
             counts[i] = _count_target(
                 P[i], E[i], psi[i], a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_width, bufs

@@ -42,9 +42,11 @@ import math
 
 import numpy as np
 
+from handarm.collision import envelopes, kernel_coefficients
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
 from handarm.ik._polish import polish_to_point
+from handarm.ik._search import refine_directions
 from handarm.ik.results import IKResult
 from handarm.kinematics import forward, is_valid
 
@@ -234,20 +236,6 @@ def _fibonacci_sphere(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
 
 
-def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
-    omega = float(_angle(a, b))
-    if omega < 1e-15:
-        return b.copy()
-    if omega > math.pi - 1e-9:  # antipodal: any great circle; take one through a helper axis
-        helper = np.array([0.0, 0.0, 1.0]) if abs(a[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-        ortho = np.cross(a, helper)
-        ortho /= np.linalg.norm(ortho)
-        th = t * omega
-        return math.cos(th) * a + math.sin(th) * ortho
-    v = (math.sin((1 - t) * omega) * a + math.sin(t * omega) * b) / math.sin(omega)
-    return v / np.linalg.norm(v)
-
-
 def closest_direction(design, p, e0, seeds=()):
     """Solvable directions near e0 for the tool point p, closest first (empty if none).
 
@@ -255,14 +243,10 @@ def closest_direction(design, p, e0, seeds=()):
     of valid configurations reaching p), are each moved to the boundary by bisection along
     the arc towards e0, then along the boundary by a shrinking pattern search.
     """
-    sphere = _fibonacci_sphere(_SPHERE)
-    ok = _solvable(design, p, sphere)
-    cand = sphere[ok]
+    sphere_starts = _nearest_solvable(design, p, _sphere_by_angle(e0), _STARTS)
     seeds = np.asarray(seeds, float).reshape(-1, 3)
     if len(seeds):
         seeds = seeds[_solvable(design, p, seeds)]
-    order = np.argsort(_angle(cand, e0))[:_STARTS] if len(cand) else np.zeros(0, int)
-    sphere_starts = [cand[k] for k in order]
     # the seeds nearest e0 that are not the same direction twice (seed configurations that
     # reach p often share their direction's neighbourhood); they fill up to 2 x _STARTS,
     # more of them where the sphere found few (near the reach, where caps are small)
@@ -272,61 +256,81 @@ def closest_direction(design, p, e0, seeds=()):
             break
         if all(float(_angle(v, w)) > _SAME_DIRECTION for w in seed_starts):
             seed_starts.append(v)
-    found = []
-    for good in sphere_starts + seed_starts:
-        arc = max(float(_angle(e0, good)), ANGLE_TOL)  # x is a fraction of it
-        t = _bisect(
-            lambda x, g=good: bool(_solvable(design, p, _slerp(e0, g, x))[0]),
-            1.0,
-            0.0,
-            ANGLE_TOL / arc,
-        )
-        found.append(_pattern_search(design, p, e0, _slerp(e0, good, t)))
+    found = _refine(design, p, e0, sphere_starts + seed_starts)
     found.sort(key=lambda v: float(_angle(v, e0)))
     return found
 
 
-def _tangents(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors that make a right-handed orthonormal frame with the unit vector v."""
-    x, y, z = float(v[0]), float(v[1]), float(v[2])
-    if abs(z) < 0.9:  # v x (0, 0, 1)
-        n = math.hypot(x, y)
-        t1 = (y / n, -x / n, 0.0)
-    else:  # v x (1, 0, 0)
-        n = math.hypot(y, z)
-        t1 = (0.0, z / n, -y / n)
-    t2 = (y * t1[2] - z * t1[1], z * t1[0] - x * t1[2], x * t1[1] - y * t1[0])
-    return np.array(t1), np.array(t2)
+def _sphere_by_angle(e0: np.ndarray) -> np.ndarray:
+    """The Fibonacci sphere's directions, nearest e0 first."""
+    sphere = _fibonacci_sphere(_SPHERE)
+    return sphere[np.argsort(_angle(sphere, e0), kind="stable")]
 
 
-def _pattern_search(design, p, e0, good):
-    """Move a solvable direction towards e0 by rings of trial directions.
+def _nearest_solvable(design, p, dirs, k: int, block: int = 64) -> list[np.ndarray]:
+    """The first k solvable of ``dirs`` (in their order): tested in order, a block at a time.
 
-    The ring's radius doubles after a move (up to 2 degrees) and halves after a miss, down
-    to ``ANGLE_TOL``: sliding along a boundary that nears e0 slowly takes a few long moves, not
-    millions of short ones. At most ``_PATTERN_ROUNDS`` rings.
+    Each block stops at its first solvable direction, so the directions beyond the k-th
+    solvable one (most of a 2,000-point sphere when e0 is near a solvable region) are never
+    tested.
     """
-    top = math.radians(2.0)
-    step = top
-    ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
-    cos_ring, sin_ring = np.cos(ring)[:, None], np.sin(ring)[:, None]
-    for _ in range(_PATTERN_ROUNDS):
-        if step <= ANGLE_TOL:
-            break
-        a0 = float(_angle(good, e0))
-        t1, t2 = _tangents(good)
-        trial = math.cos(step) * good + math.sin(step) * (cos_ring * t1 + sin_ring * t2)
-        closer = _angle(trial, e0) < a0
-        if closer.any():
-            trial = trial[closer]
-            ok = _solvable(design, p, trial)
-            if ok.any():
-                trial = trial[ok]
-                good = trial[int(np.argmin(_angle(trial, e0)))]
-                step = min(2.0 * step, top)
-                continue
-        step *= 0.5
-    return good
+    out: list[np.ndarray] = []
+    start = 0
+    while len(out) < k and start < len(dirs):
+        i = _first_solvable(design, p, dirs[start : start + block])
+        if i < 0:
+            start += block
+            continue
+        out.append(dirs[start + i])
+        start += i + 1
+    return out
+
+
+#: The ring of trial directions of the pattern search (cosines and sines of its angles).
+_RING = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+_COS_RING, _SIN_RING = np.cos(_RING), np.sin(_RING)
+_RING_TOP = math.radians(2.0)
+
+
+def _refine(design, p, e0, starts) -> list[np.ndarray]:
+    """Each solvable start moved to the boundary and along it towards e0 (one numba call).
+
+    Bisection along the great-circle arc from e0 to the start pins the solvable end nearest
+    e0 (``ANGLE_TOL``); then rings of 16 trial directions move it along the boundary: of the
+    ring's directions closer to e0, the closest solvable is taken, the ring's radius doubles
+    after a move (up to 2 degrees) and halves after a miss, down to ``ANGLE_TOL``, so that
+    sliding along a boundary that nears e0 slowly takes a few long moves, not millions of
+    short ones; at most ``_PATTERN_ROUNDS`` rings (``handarm.ik._search``).
+    """
+    if not starts:
+        return []
+    starts = np.ascontiguousarray(np.array(starts, dtype=float).reshape(-1, 3))
+    out = np.empty_like(starts)
+    env = envelopes(design)
+    scene = _SCENE.get()
+    if scene is None:
+        obs, clearance = np.zeros((0, 16)), 0.0
+    else:
+        obs, clearance = scene[0].obstacles, float(scene[1])
+    psi = 0.0 if math.hypot(p[0], p[1]) < 1e-12 else math.atan2(p[1], p[0])
+    refine_directions(
+        np.ascontiguousarray(p, dtype=float),
+        psi,
+        np.ascontiguousarray(e0, dtype=float),
+        starts,
+        _COS_RING,
+        _SIN_RING,
+        _RING_TOP,
+        ANGLE_TOL,
+        _PATTERN_ROUNDS,
+        design.lengths,
+        design.lower,
+        design.upper,
+        S._model(design, 0.0),
+        (env.pi, env.pf, kernel_coefficients(design), env.pieces_count, obs, clearance),
+        out,
+    )
+    return list(out)
 
 
 def _pitch_yaw(e: np.ndarray) -> tuple[float, float]:

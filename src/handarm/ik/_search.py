@@ -1,0 +1,180 @@
+"""Numba kernels of degradation's direction searches (``handarm.ik.degrade``).
+
+The level-3 search moves each starting direction to the boundary of the solvable set by
+bisection along the great-circle arc towards e0, then along the boundary by rings of trial
+directions. Each step asks whether one direction has an exact solution at p: here that
+question and the search's own geometry run in one compiled call per search, where the
+Python version spent more time around each question than answering it.
+
+"Solvable" is the exact solver's (a solution range of at least the model's ``min_width``),
+or, in a scene (``obs`` with rows), a range with a stretch that keeps ``c`` from every
+obstacle, exactly as ``count_solutions(..., scene=)`` counts it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from handarm.ik._common import JIT
+from handarm.ik._obstacles import _count_target, count_scratch
+from handarm.ik._solve import _first_scratch, _has_range
+
+
+@nb.njit(**JIT)
+def angle3(ax, ay, az, bx, by, bz):
+    """Angle between two unit vectors (rad), robust near 0 and pi."""
+    dx, dy, dz = ax - bx, ay - by, az - bz
+    sx, sy, sz = ax + bx, ay + by, az + bz
+    return 2.0 * math.atan2(
+        math.sqrt(dx * dx + dy * dy + dz * dz), math.sqrt(sx * sx + sy * sy + sz * sz)
+    )
+
+
+@nb.njit(**JIT)
+def tangents(x, y, z):
+    """Two unit vectors making a right-handed orthonormal frame with the unit vector (x, y, z)."""
+    if abs(z) < 0.9:  # v x (0, 0, 1)
+        n = math.hypot(x, y)
+        t1x, t1y, t1z = y / n, -x / n, 0.0
+    else:  # v x (1, 0, 0)
+        n = math.hypot(y, z)
+        t1x, t1y, t1z = 0.0, z / n, -y / n
+    return t1x, t1y, t1z, y * t1z - z * t1y, z * t1x - x * t1z, x * t1y - y * t1x
+
+
+@nb.njit(**JIT)
+def slerp(a, b, t, out):
+    """The unit vector a fraction t of the way from a to b on their great circle, into out.
+
+    Antipodal a and b: the great circle through a helper axis.
+    """
+    omega = angle3(a[0], a[1], a[2], b[0], b[1], b[2])
+    if omega < 1e-15:
+        out[0], out[1], out[2] = b[0], b[1], b[2]
+        return
+    if omega > math.pi - 1e-9:
+        hx, hy, hz = (0.0, 0.0, 1.0) if abs(a[2]) < 0.9 else (1.0, 0.0, 0.0)
+        ox, oy, oz = a[1] * hz - a[2] * hy, a[2] * hx - a[0] * hz, a[0] * hy - a[1] * hx
+        n = math.sqrt(ox * ox + oy * oy + oz * oz)
+        th = t * omega
+        c, s = math.cos(th), math.sin(th)
+        out[0], out[1], out[2] = c * a[0] + s * ox / n, c * a[1] + s * oy / n, c * a[2] + s * oz / n
+        return
+    wa, wb, den = math.sin((1.0 - t) * omega), math.sin(t * omega), math.sin(omega)
+    vx, vy, vz = (
+        (wa * a[0] + wb * b[0]) / den,
+        (wa * a[1] + wb * b[1]) / den,
+        (wa * a[2] + wb * b[2]) / den,
+    )
+    n = math.sqrt(vx * vx + vy * vy + vz * vz)
+    out[0], out[1], out[2] = vx / n, vy / n, vz / n
+
+
+@nb.njit(**JIT)
+def search_scratch(lower, upper, mdl, n_pieces, n_obs):
+    """Scratch space of the searches on this thread (free and scene solvability)."""
+    scene_bufs = count_scratch(n_pieces, n_obs)
+    return _first_scratch(lower, upper, mdl), scene_bufs, np.empty(3)
+
+
+@nb.njit(**JIT)
+def solvable(p, ex, ey, ez, psi, a, mdl, sc, scene):
+    """Whether the direction (ex, ey, ez) (normalised here) has a solution at p.
+
+    ``scene``: (pi, pf, coef, n_pieces, obs, c); with no obstacle rows, the free solver.
+    """
+    first, scene_bufs, e = sc
+    n = math.sqrt(ex * ex + ey * ey + ez * ez)
+    e[0], e[1], e[2] = ex / n, ey / n, ez / n
+    pi, pf, coef, n_pieces, obs, c = scene
+    if obs.shape[0] == 0:
+        k = _has_range(p, e, psi, a, mdl, first)
+    else:
+        k = _count_target(
+            p, e, psi, a, first[0], mdl, pi, pf, coef, n_pieces, obs, c, mdl[-1], scene_bufs
+        )
+    if k < 0:
+        raise RuntimeError("IK: more solution ranges than the internal buffers hold")
+    return k > 0
+
+
+@nb.njit(**JIT)
+def to_boundary(p, psi, e0, good, tol, a, mdl, sc, scene, out):
+    """Bisect the arc from e0 to the solvable ``good`` to its solvable end nearest e0.
+
+    The bracket [0, 1] (fraction of the arc) shrinks to ``tol`` rad of arc; ``out`` gets the
+    solvable end.
+    """
+    arc = max(angle3(e0[0], e0[1], e0[2], good[0], good[1], good[2]), tol)
+    lo, hi = 0.0, 1.0  # hi: solvable
+    trial = np.empty(3)
+    while abs(hi - lo) > tol / arc:
+        mid = 0.5 * (lo + hi)
+        slerp(e0, good, mid, trial)
+        if solvable(p, trial[0], trial[1], trial[2], psi, a, mdl, sc, scene):
+            hi = mid
+        else:
+            lo = mid
+    slerp(e0, good, hi, out)
+
+
+@nb.njit(**JIT)
+def pattern_search(p, psi, e0, good, cos_ring, sin_ring, top, tol, rounds, a, mdl, sc, scene, out):
+    """Move the solvable direction ``good`` towards e0 by rings of trial directions, into out.
+
+    A ring of ``len(cos_ring)`` directions at angle ``step`` around the present one; of those
+    closer to e0, the closest solvable is taken. The step doubles after a move (up to
+    ``top``) and halves after a miss, down to ``tol``; at most ``rounds`` rings.
+    """
+    gx, gy, gz = good[0], good[1], good[2]
+    m = cos_ring.shape[0]
+    tx, ty, tz, ang = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    order = np.empty(m, np.int64)
+    step = top
+    for _ in range(rounds):
+        if step <= tol:
+            break
+        a0 = angle3(gx, gy, gz, e0[0], e0[1], e0[2])
+        t1x, t1y, t1z, t2x, t2y, t2z = tangents(gx, gy, gz)
+        cs, ss = math.cos(step), math.sin(step)
+        n = 0
+        for k in range(m):
+            x = cs * gx + ss * (cos_ring[k] * t1x + sin_ring[k] * t2x)
+            y = cs * gy + ss * (cos_ring[k] * t1y + sin_ring[k] * t2y)
+            z = cs * gz + ss * (cos_ring[k] * t1z + sin_ring[k] * t2z)
+            w = angle3(x, y, z, e0[0], e0[1], e0[2])
+            tx[k], ty[k], tz[k], ang[k] = x, y, z, w
+            if w < a0:  # closer trials, by angle (stable: ties keep ring order)
+                j = n
+                while j > 0 and ang[order[j - 1]] > w:
+                    order[j] = order[j - 1]
+                    j -= 1
+                order[j] = k
+                n += 1
+        moved = False
+        for i in range(n):
+            k = order[i]
+            if solvable(p, tx[k], ty[k], tz[k], psi, a, mdl, sc, scene):
+                gx, gy, gz = tx[k], ty[k], tz[k]
+                moved = True
+                break
+        step = min(2.0 * step, top) if moved else 0.5 * step
+    out[0], out[1], out[2] = gx, gy, gz
+
+
+@nb.njit(**JIT)
+def refine_directions(
+    p, psi, e0, starts, cos_ring, sin_ring, top, tol, rounds, a, lower, upper, mdl, scene, out
+):
+    """Each solvable start (k, 3) moved to the boundary and along it towards e0, into out."""
+    pi, pf, coef, n_pieces, obs, c = scene
+    sc = search_scratch(lower, upper, mdl, n_pieces, obs.shape[0])
+    edge = np.empty(3)
+    for i in range(starts.shape[0]):
+        to_boundary(p, psi, e0, starts[i], tol, a, mdl, sc, scene, edge)
+        pattern_search(
+            p, psi, e0, edge, cos_ring, sin_ring, top, tol, rounds, a, mdl, sc, scene, out[i]
+        )

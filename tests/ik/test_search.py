@@ -1,0 +1,124 @@
+"""The geometry of degradation's compiled searches (``handarm.ik._search``)."""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from handarm.ik import _search as K
+
+unit = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)).filter(
+    lambda v: 1e-3 < math.sqrt(sum(x * x for x in v))
+)
+
+
+def normal(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def angle(a, b):
+    return float(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(a=unit, b=unit, t=st.floats(0.0, 1.0))
+def test_slerp_walks_the_great_circle(a, b, t):
+    """A unit vector on the plane of a and b, t of the way from a (antipodal: any circle)."""
+    a, b = normal(a), normal(b)
+    out = np.empty(3)
+    K.slerp(a, b, t, out)
+    assert abs(np.linalg.norm(out) - 1.0) < 1e-12
+    omega = angle(a, b)
+    assert abs(angle(a, out) - t * omega) < 1e-6
+    if omega < math.pi - 1e-6:
+        assert abs(angle(out, b) - (1 - t) * omega) < 1e-6
+        assert abs(np.dot(np.cross(a, b), out)) < 1e-9  # on the circle through a and b
+    assert abs(K.angle3(*a, *b) - omega) < 1e-6
+
+
+@settings(max_examples=300, deadline=None)
+@given(v=unit)
+def test_tangents_complete_a_right_handed_frame(v):
+    v = normal(v)
+    t = np.array(K.tangents(*v)).reshape(2, 3)
+    frame = np.array([t[0], t[1], v])
+    np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(frame) > 0.0
+
+
+def reference_refine(design, p, e0, good):
+    """The search in plain Python with public counts: arc bisection, then rings."""
+    from handarm import ik
+    from handarm.ik.degrade import _PATTERN_ROUNDS, ANGLE_TOL
+
+    def solvable(v):
+        return ik.count_solutions(design, p[None], normal(v)[None])[0] > 0
+
+    def slerp(a, b, t):
+        omega = angle(a, b)
+        if omega < 1e-15:
+            return b.copy()
+        v = (math.sin((1 - t) * omega) * a + math.sin(t * omega) * b) / math.sin(omega)
+        return v / np.linalg.norm(v)
+
+    arc = max(angle(e0, good), ANGLE_TOL)
+    lo, hi = 0.0, 1.0
+    while hi - lo > ANGLE_TOL / arc:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if solvable(slerp(e0, good, mid)) else (mid, hi)
+    good = slerp(e0, good, hi)
+    top = step = math.radians(2.0)
+    ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+    for _ in range(_PATTERN_ROUNDS):
+        if step <= ANGLE_TOL:
+            break
+        t1, t2 = np.array(K.tangents(*good)).reshape(2, 3)
+        trials = [
+            math.cos(step) * good + math.sin(step) * (math.cos(r) * t1 + math.sin(r) * t2)
+            for r in ring
+        ]
+        closer = sorted(
+            (angle(v / np.linalg.norm(v), e0), k, v)
+            for k, v in enumerate(trials)
+            if angle(v / np.linalg.norm(v), e0) < angle(good, e0)
+        )
+        moved = next((v for _, _, v in closer if solvable(v)), None)
+        if moved is not None:
+            good, step = moved, min(2.0 * step, top)
+        else:
+            step *= 0.5
+    return good
+
+
+def test_compiled_search_ends_where_the_plain_one_does(paper):
+    """Level-3 starts of targets that need level 3: the compiled search (one call) and a
+    plain Python one with public counts end on the same direction."""
+    from tests.ik.conftest import valid_configurations
+
+    import handarm
+    from handarm import ik
+    from handarm.ik import degrade
+
+    rng = np.random.default_rng(3)
+    q = valid_configurations(paper, rng, 300)
+    p = handarm.forward(paper, q)[0] * 1.06
+    e = normal(rng.normal(size=3))
+    checked = 0
+    for pk in p:
+        e = normal(rng.normal(size=3))
+        if ik.count_solutions(paper, pk[None], e[None])[0]:
+            continue
+        sphere = degrade._sphere_by_angle(e)
+        starts = degrade._nearest_solvable(paper, pk, sphere, 2)
+        if not starts:
+            continue
+        fast = degrade._refine(paper, pk, e, starts)
+        for start, got in zip(starts, fast, strict=True):
+            want = reference_refine(paper, pk, e, start)
+            assert angle(normal(got), normal(want)) < 1e-9, (pk, e, start)
+        checked += 1
+        if checked == 4:
+            break
+    assert checked == 4
