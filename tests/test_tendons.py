@@ -6,13 +6,15 @@ import math
 import numpy as np
 import pytest
 import trimesh
+from manifold3d import OpType
 
 import handarm
 from handarm.carve import carve
-from handarm.carve.carving import _in_joint_frame
+from handarm.carve.carving import _cylinder, _in_joint_frame
 from handarm.carve.properties import to_trimesh
-from handarm.links import joint_geometry
-from handarm.tendons import cable_lengths, cut_lengths, tendon_report
+from handarm.carve.sweep import _affine, frame_to_link
+from handarm.links import cable_runs, corridor_radius, joint_geometry
+from handarm.tendons import PULLEY_SLACK, cable_lengths, cut_lengths, swept_overlap, tendon_report
 from handarm.transmission import coupling_matrix
 
 OTHER = handarm.ArmDesign(
@@ -138,3 +140,40 @@ def test_check_finds_a_cable_pinched_in_a_fold():
     near = trimesh.proximity.signed_distance(mesh, local)
     rc = d.cable_diameter * 1e3 / 2 + d.clearance * 1e3
     assert np.max(near) > -rc  # some point of the run is within the cable's radius
+
+
+def test_swept_material_holds_what_the_cables_meet_at_every_angle(carved):
+    """Joint 2 turned to angles across its range: the part of l2 (its pulley left out) that
+    l1's cables, placed independently as turned cylinders, run into never exceeds what the
+    sweep says is in their way; in the fold it is not zero, and neither is the sweep's."""
+    from manifold3d import Manifold
+
+    design = carved.design
+    lo, hi = carved.joints[1].carved
+    swept = swept_overlap(design, carved)[1]["distal_mm3"]
+    l1, l2 = carved.links[1], carved.links[2]
+    rc = corridor_radius(design)
+    to_joint = _affine(np.linalg.inv(frame_to_link(l1.blank, "dist")))
+    runs = Manifold.batch_boolean(
+        [_cylinder(a, b, rc, 32) for a, b in cable_runs(design, 1)], OpType.Add
+    ).transform(to_joint)
+    pulley = Manifold.cylinder(
+        100.0, joint_geometry(design, 2).tongue_radius + PULLEY_SLACK, circular_segments=96
+    ).translate([0.0, 0.0, -50.0])
+    l2_beyond = l2.solid - pulley
+    met = [
+        (l2_beyond ^ runs.rotate([0.0, 0.0, -math.degrees(q)])).volume()
+        for q in np.linspace(lo, hi, 25)
+    ]
+    assert max(met) > 1.0  # the fold pinches l1's cables (see the test below)
+    assert max(met) <= swept + 1e-6
+
+
+def test_nothing_is_in_the_cables_way_over_narrow_ranges():
+    """With every joint limited to +-60 degrees the sweeps of every joint's cables hold no
+    printed material, and the traced check agrees at its poses."""
+    design = handarm.ArmDesign().with_limits_deg([60.0] * 6)
+    carving = carve(design, 2.0)
+    for joint in swept_overlap(design, carving):
+        assert joint["proximal_mm3"] < 1e-6 and joint["distal_mm3"] < 1e-6, joint
+    assert tendon_report(design, carving, samples=2)["clear"]

@@ -36,6 +36,7 @@ __all__ = [
     "joint_geometry",
     "link_blank",
     "strands_in_link",
+    "cable_runs",
     "anchor_angles",
     "corridor_radius",
     "mast_screws",
@@ -480,6 +481,28 @@ def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
             p2 = (end[0] - lead_in, end[1], end[2])
             for n, (a, b) in enumerate(((start, p1), (p1, p2), (p2, end))):
                 out.append(Strand(k, cable, side, a, b, segment=n))
+    return out
+
+
+def cable_runs(design: ArmDesign, k: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The free stretches of the cable runs along link k (0..6), (start, end) in mm.
+
+    A run that ends on its own tongue (cable k + 1 on l(k)) lies in the tongue's groove for
+    its last ``sqrt((R + rc)^2 - r^2)`` (R the tongue's radius, r the pulley radius, rc the
+    cable radius plus clearance): that stretch is on the pulley it wraps and is left off.
+    What remains must keep clear of every printed part: the tendon check traces these at
+    its poses and sweeps them through each joint's range (``handarm.tendons``).
+    """
+    rc = corridor_radius(design)
+    out = []
+    for st in strands_in_link(design, k):
+        a, b = np.array(st.start), np.array(st.end)
+        if st.cable == k + 1 and st.segment == (2 if k == 3 else 0):
+            g = joint_geometry(design, k + 1)
+            cut = math.sqrt((g.tongue_radius + rc) ** 2 - g.groove_radius**2)
+            length = float(np.linalg.norm(b - a))
+            b = a + (b - a) * (1.0 - cut / length)
+        out.append((a, b))
     return out
 
 

@@ -9,7 +9,8 @@ idler it is an arc at the pulley radius, the radius the transmission uses.
 ``cut_lengths`` gives the length to cut per cable (for the bill of materials);
 ``tendon_report`` traces every side at several poses across the joint ranges and checks that
 the cable (its centre line grown by the cable radius and the print clearance) meets no
-printed part except the pulley it wraps.
+printed part except the pulley it wraps; ``swept_overlap`` proves it for each joint over its
+whole range, or measures the material in the way.
 """
 
 from __future__ import annotations
@@ -22,7 +23,14 @@ import numpy as np
 
 from handarm._checks import check_design
 from handarm.design import ArmDesign
-from handarm.links import MM, anchor_angles, corridor_radius, joint_geometry, strands_in_link
+from handarm.links import (
+    MM,
+    anchor_angles,
+    cable_runs,
+    corridor_radius,
+    joint_geometry,
+    strands_in_link,
+)
 
 __all__ = [
     "CableLength",
@@ -31,12 +39,17 @@ __all__ = [
     "tendon_report",
     "tendon_summary",
     "cable_clear_limits",
+    "swept_overlap",
     "TIE_ALLOWANCE",
     "DEFAULT_MOTOR_RUN",
 ]
 
 #: Cable (m) added at each anchor for the knot or crimp.
 TIE_ALLOWANCE = 0.03
+#: How far (mm) beyond its radius a tongue counts as the pulley in ``swept_overlap``: the
+#: sweeps hold their runs with some room to spare (polygons outside circles, rings of
+#: 0.2 mm), and a run stops where its clearance would touch the tongue's rim.
+PULLEY_SLACK = 0.5
 #: Default straight run (m) from l0's exit plate to the motor pulley, per side, until the
 #: handle's motor bed gives the real one.
 DEFAULT_MOTOR_RUN = 0.10
@@ -154,22 +167,11 @@ def _poses(design: ArmDesign, carved: list[tuple[float, float]], samples: int, s
 
 
 def _runs(design: ArmDesign) -> list[tuple[int, int, int, np.ndarray, np.ndarray]]:
-    """(link, cable, side, start, end) of every run, mm, with the part on its tongue cut off.
-
-    A run that ends on its own tongue (cable k on l(k-1)) lies in the tongue's groove for its
-    last ``sqrt((R + rc)^2 - r^2)`` (R the tongue's radius, r the pulley radius, rc the
-    cable radius plus clearance): that is the pulley it wraps, not checked.
-    """
-    rc = corridor_radius(design)
+    """(link, cable, side, start, end) of every free stretch of run, mm (``cable_runs``)."""
     out = []
     for k in range(6):
-        for st in strands_in_link(design, k):
-            a, b = np.array(st.start), np.array(st.end)
-            if st.cable == k + 1 and st.segment == (2 if k == 3 else 0):
-                g = joint_geometry(design, k + 1)
-                cut = math.sqrt((g.tongue_radius + rc) ** 2 - g.groove_radius**2)
-                length = float(np.linalg.norm(b - a))
-                b = a + (b - a) * (1.0 - cut / length)
+        strands = strands_in_link(design, k)
+        for st, (a, b) in zip(strands, cable_runs(design, k), strict=True):
             out.append((k, st.cable, st.side, a, b))
     return out
 
@@ -184,7 +186,8 @@ def tendon_report(
     intersected (manifold3d) with every carved link placed at the same pose; the arcs lie on
     the pulley and idlers the cable wraps. Poses: q = 0, each joint alone at both ends of its
     carved range, and ``samples`` random poses within the carved ranges that the design's
-    collision model accepts.
+    collision model accepts. ``swept_overlap`` adds, per joint, the proof over the joint's
+    whole range (or what stands in the way).
 
     Parameters
     ----------
@@ -203,8 +206,10 @@ def tendon_report(
     dict
         ``clear`` (bool), ``poses`` (count), ``contacts`` (list of pose, cable, side, link,
         volume in mm^3), ``cable_clear_deg`` (per joint, how far it turns alone with its
-        cables clear, ``cable_clear_limits``), ``cables`` (``CableLength.to_dict`` per cable
-        with ``cut_length_m``).
+        cables clear, ``cable_clear_limits``), ``swept_in_the_way_mm3`` (per joint, the
+        material its links would give up for their cables to clear its whole range,
+        ``swept_overlap``), ``cables`` (``CableLength.to_dict`` per cable with
+        ``cut_length_m``).
 
     Raises
     ------
@@ -279,6 +284,7 @@ def tendon_report(
             {"joint": j + 1, "lower": math.degrees(lo), "upper": math.degrees(hi)}
             for j, (lo, hi) in enumerate(clear_limits)
         ],
+        "swept_in_the_way_mm3": swept_overlap(design, carving),
         "cable_radius_plus_clearance_mm": rc,
         "contacts": contacts,
         "cables": [
@@ -302,6 +308,14 @@ def tendon_summary(report: dict) -> str:
         "  joints turn alone with their cables clear to (deg): "
         + ", ".join(f"{c['lower']:.0f}..{c['upper']:.0f}" for c in report["cable_clear_deg"])
     )
+    lines.append(
+        "  printed material in the cables' way over each joint's whole range "
+        "(mm^3, proximal / distal link): "
+        + ", ".join(
+            f"{s['proximal_mm3']:.0f} / {s['distal_mm3']:.0f}"
+            for s in report["swept_in_the_way_mm3"]
+        )
+    )
     if report["clear"]:
         lines.append(f"  every cable runs clear of the printed parts at {report['poses']} poses")
     else:
@@ -313,6 +327,71 @@ def tendon_summary(report: dict) -> str:
             f"meets {worst['meets']} at q = {worst['q_deg']} deg); see tendons.json"
         )
     return "\n".join(lines) + "\n"
+
+
+def swept_overlap(design: ArmDesign, carving) -> list[dict]:
+    """Per joint, the printed material (mm^3) in the cables' way anywhere in its range.
+
+    Joint j turns l(j) against l(j-1) through its carved range. The free runs on l(j-1)
+    (cylinders of the cable radius plus clearance, ``links.cable_runs``), seen from l(j),
+    sweep a volume that holds every place they take; so do those on l(j), seen from l(j-1)
+    (``handarm.carve.sweep.sweep_runs``). No material of the other link inside them proves
+    that joint j, alone and anywhere in its range, keeps both links' cables clear of both
+    links; what lies inside is what the links would have to give up for it. Within
+    ``PULLEY_SLACK`` of its rim the tongue of joint j is the pulley the cable wraps, left
+    out as the traced check leaves it out (its runs stop where they would touch it).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    carving : handarm.carve.CarveResult
+        The carved links; each joint is swept over its carved range.
+
+    Returns
+    -------
+    list of dict
+        Per joint: ``joint``, ``proximal_mm3`` (l(j-1) inside the sweep of l(j)'s runs)
+        and ``distal_mm3`` (l(j) inside the sweep of l(j-1)'s runs).
+    """
+    from manifold3d import Manifold
+
+    from handarm.carve.carving import _in_joint_frame
+    from handarm.carve.sweep import frame_to_link, sweep_runs
+
+    rc = corridor_radius(design)
+
+    def inside(solid, runs, lo, hi) -> float:
+        if not runs:
+            return 0.0
+        box = np.asarray(solid.bounding_box()).reshape(2, 3)
+        return float((solid ^ sweep_runs(runs, rc, lo, hi, 0.0, box)).volume())
+
+    out = []
+    for j in range(1, 7):
+        p_link, d_link = carving.links[j - 1], carving.links[j]
+        lo, hi = carving.joints[j - 1].carved
+        # l(j-1)'s runs in joint j's frame, which is l(j)'s own frame
+        to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
+        p_runs = [
+            tuple((to_joint @ np.array([*pt, 1.0]))[:3] for pt in run)
+            for run in cable_runs(design, j - 1)
+        ]
+        box = np.asarray(d_link.solid.bounding_box()).reshape(2, 3)
+        pulley = Manifold.cylinder(
+            box[1, 2] - box[0, 2] + 2.0,
+            joint_geometry(design, j).tongue_radius + PULLEY_SLACK,
+            circular_segments=96,
+        ).translate([0.0, 0.0, box[0, 2] - 1.0])
+        out.append(
+            {
+                "joint": j,
+                "proximal_mm3": inside(
+                    _in_joint_frame(p_link, "dist"), cable_runs(design, j), lo, hi
+                ),
+                "distal_mm3": inside(d_link.solid - pulley, p_runs, -hi, -lo),
+            }
+        )
+    return out
 
 
 def _pinched(prox, dist, prox_runs, dist_runs, q: float) -> bool:

@@ -3,13 +3,13 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from manifold3d import CrossSection, OpType
+from manifold3d import CrossSection, Manifold, OpType
 
 import handarm
 from handarm.carve import carve, check_carvable, link_blank
-from handarm.carve.carving import _in_joint_frame
+from handarm.carve.carving import _cylinder, _in_joint_frame
 from handarm.carve.properties import to_trimesh
-from handarm.carve.sweep import sweep_parts
+from handarm.carve.sweep import sweep_parts, sweep_runs
 from handarm.links import Part
 
 
@@ -84,6 +84,26 @@ def test_sweep_covers_a_dense_union_of_rotated_copies(step_deg):
     assert section.area() < dense.area() * 1.02
     lo_z, hi_z = np.asarray(swept.bounding_box()).reshape(2, 3)[:, 2]
     assert lo_z <= -3.0 and hi_z >= 3.0
+
+
+def test_cable_sweep_holds_every_turned_copy_of_its_runs():
+    """A sloping run and a level run passing the axle at 8 mm, turned by -150 .. 120
+    degrees: no copy of their cylinders (grown by the clearance, every 2 degrees) sticks out
+    of the polar sweep, which is at most 30 % larger (its pieces rise 0.25 mm), while the
+    copies do stick out of the sweep of a range 10 degrees shorter."""
+    runs = [((-40.0, 8.0, 9.7), (0.0, 8.0, 6.7)), ((-30.0, -6.0, 1.0), (-7.0, -8.0, -0.95))]
+    radius, grow = 1.15, 0.4
+    lo, hi = math.radians(-150.0), math.radians(120.0)
+    swept = sweep_runs(runs, radius, lo, hi, grow)
+    cylinders = Manifold.batch_boolean(
+        [_cylinder(a, b, radius + grow, 32) for a, b in runs], OpType.Add
+    )
+    copies = [cylinders.rotate([0.0, 0.0, float(d)]) for d in np.arange(-150.0, 121.0, 2.0)]
+    dense = Manifold.batch_boolean(copies, OpType.Add)
+    assert (dense - swept).volume() < 1e-6
+    assert swept.volume() < 1.3 * dense.volume()
+    shorter = sweep_runs(runs, radius, lo + math.radians(10.0), hi, grow)
+    assert (dense - shorter).volume() > 1.0
 
 
 def test_larger_limits_never_add_material():
