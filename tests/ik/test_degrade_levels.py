@@ -353,3 +353,30 @@ def test_level4_search_stops_each_side_at_the_best_answer(paper, monkeypatch):
         found += math.isfinite(best[True])
     assert found >= 6
     assert cost[True] < 0.5 * cost[False], cost
+
+
+def test_a_sub_problem_with_no_valid_stretch_rules_out_its_whole_circle(paper):
+    """Where the base problem alone has no valid stretch, no direction of e's azimuth is
+    solvable at p (360 on the vertical great circle through e); where the tip problem alone
+    has none, no direction of e's elevation is (360 on its small circle)."""
+    rng = np.random.default_rng(10)
+    q = valid_configurations(paper, rng, 200)
+    P = handarm.forward(paper, q)[0] * rng.uniform(1.0, 1.4, (200, 1))
+    P = P[np.linalg.norm(P, axis=1) < 0.29]
+    t = np.radians(np.arange(0.0, 360.0, 1.0) + 0.3)
+    ruled_out = {"base": 0, "tip": 0}
+    for p in P[:120]:
+        e = rng.normal(size=3)
+        e /= np.linalg.norm(e)
+        pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
+        base, tip = exact.sub_problems_solvable(paper, p, e, yaw)
+        if not base:
+            ruled_out["base"] += 1
+            circle = np.stack([np.cos(t) * math.cos(yaw), np.cos(t) * math.sin(yaw), np.sin(t)], 1)
+            assert not solvable(paper, p, circle).any()
+        if not tip:
+            ruled_out["tip"] += 1
+            c = math.cos(pitch)
+            circle = np.stack([c * np.cos(t), c * np.sin(t), np.full_like(t, e[2])], 1)
+            assert not solvable(paper, p, circle).any()
+    assert min(ruled_out.values()) >= 5, ruled_out

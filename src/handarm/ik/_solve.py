@@ -560,6 +560,45 @@ def count_many_serial(P, E, psi_vertical, a, lower, upper, counts, mdl):
 
 
 @nb.njit(**JIT)
+def sub_problems_solvable(p, e, psi_vertical, a, lower, upper, mdl):
+    """Whether the base problem and the tip problem each have a valid stretch on their own.
+
+    For either sign of L's direction, each sub-problem's joint limits and reach within its
+    own reach chord (the paper's segments too under the paper's model), as ``_solve_target``
+    classifies them before combining. The base problem depends on p and L's azimuth alone,
+    the tip problem on p_z and e's elevation alone; so a circle of directions of one
+    azimuth (the other elevation) has no solution anywhere when this says False for the
+    base (the tip). Returns (base, tip).
+    """
+    work = _workspace(lower, upper, mdl[1].shape[0])
+    lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
+    hx, hy = e[0], e[1]
+    hn = math.sqrt(hx * hx + hy * hy)
+    if hn < VERTICAL_EPS:
+        hx, hy, hn = math.cos(psi_vertical), math.sin(psi_vertical), 1.0
+    base, tip = False, False
+    for s in range(2):
+        sgn = 1.0 if s == 0 else -1.0
+        dx, dy = sgn * hx / hn, sgn * hy / hn
+        _frames(p, e, dx, dy, a, fr)
+        wb = reach_half_width(fr[0], fr[1], a[1], a[2])
+        if wb >= 0.0 and not base:
+            canonical_intervals(
+                fr[0], fr[1], dx, dy, a[0], a[1], a[2], a[3], lb, -wb, wb,
+                allowed, -1, iv_b, cnt_b, buf, tags, ws, mdl[0],
+            )  # fmt: skip
+            base = cnt_b[0] + cnt_b[1] > 0
+        wt = reach_half_width(fr[3], fr[4], a[5], a[4])
+        if wt >= 0.0 and not tip:
+            canonical_intervals(
+                fr[3], fr[4], fr[5], fr[6], a[6], a[5], a[4], a[3], lt, -wt, wt,
+                allowed, -1, iv_t, cnt_t, buf, tags, ws, mdl[0],
+            )  # fmt: skip
+            tip = cnt_t[0] + cnt_t[1] > 0
+    return base, tip
+
+
+@nb.njit(**JIT)
 def _first_scratch(lower, upper, mdl):
     """Scratch space of the calling thread for ``_has_range``."""
     work = _workspace(lower, upper, mdl[1].shape[0])

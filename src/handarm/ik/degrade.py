@@ -398,8 +398,14 @@ def _circle_candidates(design, p, e, current, prune=True) -> list[np.ndarray]:
     def yaw_cost(x):  # angle from e of the direction x (rad) of yaw away on its small circle
         return 2.0 * math.asin(min(1.0, cos_pitch * math.sin(0.5 * x)))
 
-    circles = [(along_pitch, pitch, float)]  # a great circle: the angle is the offset
-    if cos_pitch > KEEP_TOL:  # a vertical e has no pitch-keeping circle
+    # the pitch circle keeps L's azimuth, so its base problem is e's; the yaw circle keeps the
+    # elevation, so its tip problem is e's: where that sub-problem alone has no valid
+    # stretch, no direction of the circle is solvable and the circle is not searched
+    base, tip = S.sub_problems_solvable(design, p, e, yaw)
+    circles = []
+    if base:
+        circles.append((along_pitch, pitch, float))  # a great circle: the angle is the offset
+    if tip and cos_pitch > KEEP_TOL:  # a vertical e has no pitch-keeping circle
         circles.append((along_yaw, yaw, yaw_cost))
     found = _nearest_on_circles(design, p, circles, prune)
     return [circles[c][0](np.array([circles[c][1] + x]))[0] for c, x in found]

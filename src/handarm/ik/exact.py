@@ -546,6 +546,26 @@ def solvable_checked(design: ArmDesign, P, E, psi, min_width: float = 0.0) -> np
     return out > 0
 
 
+def sub_problems_solvable(design: ArmDesign, p, e, azimuth: float) -> tuple[bool, bool]:
+    """Whether the base and the tip problem of a checked target each have a valid stretch.
+
+    ``e`` a unit vector; ``azimuth`` L's azimuth if e is vertical. Each is taken alone
+    (limits and reach, within its own reach; ``_solve.sub_problems_solvable``): False for
+    either means no direction sharing e's azimuth (base) or e's elevation (tip) is solvable
+    at p.
+    """
+    base, tip = K.sub_problems_solvable(
+        np.ascontiguousarray(p, dtype=float),
+        np.ascontiguousarray(e, dtype=float),
+        float(azimuth),
+        design.lengths,
+        design.lower,
+        design.upper,
+        _model(design),
+    )
+    return bool(base), bool(tip)
+
+
 def first_solvable_checked(design: ArmDesign, P, E, psi, min_width: float = 0.0) -> int:
     """Index of the first checked target (in order) that has a solution range, or -1."""
     i = int(K.first_solvable(*_targets_args(design, P, E, psi, min_width)))
