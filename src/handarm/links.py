@@ -30,6 +30,7 @@ from handarm.design import ArmDesign
 __all__ = [
     "Part",
     "Hole",
+    "Groove",
     "LinkBlank",
     "JointGeometry",
     "Strand",
@@ -63,8 +64,8 @@ class Part:
 class Hole:
     """A cylindrical hole: axis from ``start`` to ``end`` (mm, in ``frame``), ``radius``.
 
-    With ``inner_radius`` > 0 it is a ring (a cable groove): only what lies between the two
-    radii is cut.
+    With ``tip`` > 0 a blind hole's start is closed by a cone ``tip`` mm tall instead of a
+    flat end (a drill's point): its wall is steep enough to print as a roof.
     """
 
     name: str
@@ -72,7 +73,23 @@ class Hole:
     start: tuple[float, float, float]
     end: tuple[float, float, float]
     radius: float
-    inner_radius: float = 0.0
+    tip: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
+class Groove:
+    """A cut revolved about the axle of ``frame`` (mm): the cable groove round a tongue.
+
+    ``profile`` (n, 2) is the cut's outline in (r, z), turned a full turn about the axle.
+    Where the beam's root covers the groove (x > 0, |y| < ``root_half_width``) the groove is
+    a tunnel and the cut's outline is ``tunnel`` instead.
+    """
+
+    name: str
+    frame: str
+    profile: np.ndarray
+    tunnel: np.ndarray
+    root_half_width: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -155,7 +172,7 @@ class JointGeometry:
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality
 class LinkBlank:
-    """The uncarved link k: its parts, holes and the transform between its two joint frames.
+    """The uncarved link k: parts, holes, corridors, groove and its joint frames' transform.
 
     ``dist_from_prox`` (4x4, mm) maps distal-joint-frame coordinates into the link frame;
     None for l0 (whose only joint frame is the base frame) and l6.
@@ -167,6 +184,7 @@ class LinkBlank:
     length: float
     dist_from_prox: np.ndarray | None
     channels: tuple[Channel, ...] = ()
+    grooves: tuple[Groove, ...] = ()
 
     @property
     def name(self) -> str:
@@ -231,7 +249,8 @@ def _fork(
     The gap between the cheeks stays open out to ``clear`` (the tongue's radius plus
     margins): the bridge starts beyond it, so nothing of this link turns through the
     neighbour's tongue. ``extra`` (mm, + plate and - plate) thickens a plate outwards where
-    a cable corridor cuts into it from the gap (``_plate_extra``).
+    a cable corridor cuts into it from the gap (``_plate_extra``); its cheek grows with it,
+    so that the plate's outer face is one flat face to print on.
     """
     lo, hi = g.gap_lo, g.gap_hi
     cheek = g.cheek
@@ -239,8 +258,8 @@ def _fork(
     hub = _circle(g.hub_radius)
     plate = _box(-length, 0.0, -g.hub_radius - below, g.hub_radius)
     return [
-        Part(f"fork cheek + at joint {g.joint}", frame, hub, hi, hi + cheek, axisymmetric=True),
-        Part(f"fork cheek - at joint {g.joint}", frame, hub, lo - cheek, lo, axisymmetric=True),
+        Part(f"fork cheek + at joint {g.joint}", frame, hub, hi, top, axisymmetric=True),
+        Part(f"fork cheek - at joint {g.joint}", frame, hub, bottom, lo, axisymmetric=True),
         Part(f"fork plate + at joint {g.joint}", frame, plate, hi, top),
         Part(f"fork plate - at joint {g.joint}", frame, plate, bottom, lo),
         Part(
@@ -353,23 +372,62 @@ def anchor_angles(design: ArmDesign, j: int) -> tuple[float, float]:
     return math.pi / 2 - hi - m, -math.pi / 2 - lo + m
 
 
-def _groove_and_anchors(design: ArmDesign, g: JointGeometry) -> list[Hole]:
-    """The cable groove (two lanes) round the tongue and an anchor hole per strand."""
+#: A blind hole's conical end is this many radii tall: its wall rises 48 degrees, a roof
+#: that prints without support.
+HOLE_TIP = 1.1
+
+
+def _groove(design: ArmDesign, g: JointGeometry) -> Groove:
+    """The cable groove round the tongue: two lanes, its roof rising at 45 degrees.
+
+    The groove's bottom is at the pulley radius less the cable's radius; it is as wide as
+    the two lanes with the cable's clearance circle (radius plus half the clearance) at
+    either side. The tongue prints lying on its -z face, so the groove's + face is a roof:
+    it is the line z = r + off at 45 degrees, tangent to the + lane's clearance circle,
+    from the groove's bottom out past the rim (flat at ``min_wall`` under the tongue's face
+    instead where the rim would keep less). Under the beam's root, where the groove is a
+    tunnel, the roof is a 45-degree gable from that line down to the tunnel's outer wall,
+    ``min_wall`` under the beam's face at most.
+    """
     cable_r = design.cable_diameter * MM / 2
-    half = g.lane + cable_r + g.clearance / 2
-    holes = [
-        Hole(
-            f"cable groove at joint {g.joint}",
-            "prox",
-            (0.0, 0.0, -half),
-            (0.0, 0.0, half),
-            g.tongue_radius + 1.0,
-            inner_radius=g.groove_radius - cable_r,
-        )
-    ]
+    rc = cable_r + g.clearance / 2  # the cable's clearance circle
+    half = g.lane + rc
+    bottom = g.groove_radius - cable_r
+    outer = g.tongue_radius + 1.0
+    top = g.tongue_thickness / 2 - design.min_wall * MM
+    off = g.lane - g.groove_radius + math.sqrt(2.0) * rc
+
+    def outline(ridge: list[tuple[float, float]], cap: float) -> np.ndarray:
+        # along the floor, up the outer wall, over the ridge, back down the roof's line
+        pts = [(bottom, -half), (outer, -half), *ridge]
+        knee = cap - off  # where the roof's line meets its cap
+        if bottom < knee < pts[-1][0]:
+            pts.append((knee, cap))
+        pts.append((bottom, min(bottom + off, cap)))
+        return np.array(pts, dtype=float)
+
+    rim = top if g.tongue_radius + off > top else math.inf
+    ridge_r = (half + outer - off) / 2  # the roof's line meets the gable's outer flank
+    if ridge_r + off <= top:
+        gable = [(outer, half), (ridge_r, ridge_r + off)]
+    else:  # capped: the outer flank stops at the cap
+        gable = [(outer, half), (half + outer - top, top)]
+    return Groove(
+        f"cable groove at joint {g.joint}",
+        "prox",
+        outline([(outer, min(outer + off, rim))], rim),
+        outline(gable, top),
+        design.beam_width * MM / 2,
+    )
+
+
+def _anchors(design: ArmDesign, g: JointGeometry) -> list[Hole]:
+    """An anchor hole per strand, from its lane in the groove out through the tongue's face."""
+    cable_r = design.cable_diameter * MM / 2
     hole_r = cable_r + g.clearance / 2
     at = g.groove_radius - cable_r - 0.6 * hole_r  # breaks into the groove's bottom
     face = g.tongue_thickness / 2 + 1.0
+    holes = []
     for side, angle in zip((1, -1), anchor_angles(design, g.joint), strict=True):
         x, y = at * math.cos(angle), at * math.sin(angle)
         holes.append(
@@ -379,6 +437,7 @@ def _groove_and_anchors(design: ArmDesign, g: JointGeometry) -> list[Hole]:
                 (x, y, side * g.lane),
                 (x, y, side * face),
                 hole_r,
+                tip=HOLE_TIP * hole_r,
             )
         )
     return holes
@@ -588,14 +647,15 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     t = g_prox.tongue_thickness / 2
     parts.append(_tongue(g_prox))
     holes.append(_axle(g_prox, "prox"))
-    holes += _groove_and_anchors(design, g_prox)
+    holes += _anchors(design, g_prox)
+    grooves = (_groove(design, g_prox),)
     if k == 6:
         parts.append(Part("beam", "prox", _box(0.0, a, -bw, bw), -t, t))
         # tool mount: a boss at the tip with a bore along x for the tool's shank
         boss = max(bw, 6.0)
         parts.append(Part("tool mount", "prox", _box(a - 10.0, a, -boss, boss), -t, t))
         holes.append(Hole("tool bore", "prox", (a - 8.0, 0, 0), (a + 1.0, 0, 0), 2.0))
-        return LinkBlank(6, tuple(parts), tuple(holes), a, None)
+        return LinkBlank(6, tuple(parts), tuple(holes), a, None, grooves=grooves)
     g_dist = joint_geometry(design, k + 1)
     # the fork runs back along half the link; its bridge and the beam stop short of the
     # neighbour's tongue
@@ -606,4 +666,4 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     below = _twist_fin(design) if k == 3 else 0.0
     parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra, below=below)
     holes.append(_axle(g_dist, "dist"))
-    return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k))
+    return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k), grooves)

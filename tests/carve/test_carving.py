@@ -6,16 +6,17 @@ import trimesh
 from manifold3d import CrossSection, Manifold, OpType
 
 import handarm
+from handarm.cad_out.meshes import support_area
 from handarm.carve import carve, check_carvable, link_blank
 from handarm.carve.carving import _cylinder, _in_joint_frame
 from handarm.carve.properties import to_trimesh
 from handarm.carve.sweep import sweep_parts, sweep_runs
-from handarm.links import Part
+from handarm.links import Part, joint_geometry
 
 
 @pytest.fixture(scope="module")
-def carved():
-    return carve(handarm.ArmDesign())
+def carved(carved_default):
+    return carved_default
 
 
 def test_every_link_is_one_watertight_body(carved):
@@ -184,3 +185,27 @@ def test_limits_beyond_what_the_links_allow_are_carved_to_the_largest_healthy_ra
         assert -math.pi < lo < -math.radians(90) and math.radians(90) < hi < math.pi
         assert joint.achieved[0] <= lo and hi <= joint.achieved[1]
         assert built.joint_limits[k] == joint.achieved  # inside the request: the links decide
+
+
+def test_tongue_prints_on_its_face_without_support(carved_default):
+    """The groove's roof rises at 45 degrees and the anchors end in points: the tongue, lying
+    on its -z face, has nothing facing down (l1..l6 of the paper's arm)."""
+    design = carved_default.design
+    for k in range(1, 7):
+        g = joint_geometry(design, k)
+        r, t = g.tongue_radius + 0.5, g.tongue_thickness / 2
+        box = Manifold.cube([2 * r, 2 * r, 2 * t + 2.0]).translate([-r, -r, -t - 1.0])
+        tongue = carved_default.links[k].solid ^ box
+        down = support_area(to_trimesh(tongue), [0.0, 0.0, -1.0])
+        assert down < 0.5, (k, down)
+
+
+def test_fork_cheeks_grow_with_their_plates():
+    """Where a plate grows outwards for a corridor, its cheek grows with it: one flat face."""
+    design = handarm.ArmDesign()
+    for k in range(1, 6):
+        parts = {p.name: p for p in link_blank(design, k).parts}
+        for sign in "+-":
+            cheek = parts[f"fork cheek {sign} at joint {k + 1}"]
+            plate = parts[f"fork plate {sign} at joint {k + 1}"]
+            assert (cheek.z0, cheek.z1) == (plate.z0, plate.z1)

@@ -15,12 +15,12 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from manifold3d import Manifold, OpType
+from manifold3d import CrossSection, Manifold, OpType
 
 from handarm._checks import check_design
 from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, prism, sweep_parts
 from handarm.design import MIN_BORE_WALL, ArmDesign
-from handarm.links import MM, LinkBlank, Part, link_blank
+from handarm.links import MM, Groove, Hole, LinkBlank, Part, link_blank
 
 __all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"]
 
@@ -135,19 +135,52 @@ def _lengthened(a, b, by: float) -> tuple[np.ndarray, np.ndarray]:
     return a - by * u, b + by * u
 
 
+def _hole(h: Hole) -> Manifold:
+    """A cylindrical hole in its own frame; with a tip, its start closed by a cone."""
+    cut = _cylinder(h.start, h.end, h.radius)
+    if h.tip <= 0.0:
+        return cut
+    start = np.asarray(h.start, float)
+    axis = np.asarray(h.end, float) - start
+    tip = start - h.tip * axis / np.linalg.norm(axis)
+    verts = np.asarray(cut.to_mesh().vert_properties)[:, :3]
+    return Manifold.hull_points(np.vstack([verts, tip]))
+
+
+#: Segments of a groove's turn: its bottom is the pulley radius.
+_GROOVE_SEGMENTS = 128
+
+
+def _groove(g: Groove) -> Manifold:
+    """The groove's cut in its frame: its outline turned about the axle, or the tunnel's."""
+    # the bottom circumscribed: the groove's bottom is never inside its radius
+    grow = 1.0 / math.cos(math.pi / _GROOVE_SEGMENTS)
+
+    def turned(outline: np.ndarray) -> Manifold:
+        pts = np.array(outline, dtype=float)
+        pts[pts[:, 0] <= pts[:, 0].min(), 0] *= grow
+        x, z = pts[:, 0], pts[:, 1]
+        if np.sum(x * np.roll(z, -1) - np.roll(x, -1) * z) < 0:  # counter-clockwise
+            pts = pts[::-1]
+        return Manifold.revolve(CrossSection([pts]), _GROOVE_SEGMENTS)
+
+    ring, tunnel = turned(g.profile), turned(g.tunnel)
+    lo, hi = ring.bounding_box()[2] - 1.0, ring.bounding_box()[5] + 1.0
+    far = float(g.profile[:, 0].max()) + 1.0
+    w = g.root_half_width
+    root = Manifold.cube([far, 2 * w, hi - lo]).translate([0.0, -w, lo])
+    return (ring - root) + (tunnel ^ root)
+
+
 def _holes(blank: LinkBlank) -> Manifold:
+    cuts = [_hole(h).transform(_affine(frame_to_link(blank, h.frame))) for h in blank.holes]
+    cuts += [_groove(g).transform(_affine(frame_to_link(blank, g.frame))) for g in blank.grooves]
+    return Manifold.batch_boolean(cuts + _corridors(blank), OpType.Add)
+
+
+def _corridors(blank: LinkBlank) -> list[Manifold]:
+    """The link's cable corridors (its channels), link frame."""
     cuts = []
-    for h in blank.holes:
-        # rings (cable grooves) get fine segments: their bottom is the pulley radius
-        n = 32 if h.inner_radius <= 0.0 else 128
-        cut = _cylinder(h.start, h.end, h.radius, n)
-        if h.inner_radius > 0.0:
-            length = float(np.linalg.norm(np.subtract(h.end, h.start)))
-            # the inner cylinder is circumscribed: the groove bottom is never inside its radius
-            inner = h.inner_radius / math.cos(math.pi / n)
-            grown = np.subtract(h.end, h.start) / length
-            cut = cut - _cylinder(np.subtract(h.start, grown), np.add(h.end, grown), inner, n)
-        cuts.append(cut.transform(_affine(frame_to_link(blank, h.frame))))
     for ch in blank.channels:
         # circumscribed: the corridor holds a cable of the full radius everywhere; each run
         # 0.05 mm longer at both ends, so that consecutive segments (on l3) overlap instead
@@ -161,7 +194,7 @@ def _holes(blank: LinkBlank) -> Manifold:
         cuts += [
             Manifold.batch_hull(cyls[i : i + 2 * n]) for i in range(0, max(len(cyls) - n, 1), n)
         ]
-    return Manifold.batch_boolean(cuts, OpType.Add)
+    return cuts
 
 
 def _bounds_in(blank: LinkBlank, solid: Manifold, frame: str) -> np.ndarray:
