@@ -14,99 +14,46 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from manifold3d import Manifold
 
 from handarm._io import write_bytes_atomic
 from handarm.carve.carving import CarvedLink
+from handarm.carve.printing import OVERHANG_DEG, pose_on_bed, support_area
+from handarm.carve.printing import print_orientation as _print_orientation
 from handarm.carve.properties import to_trimesh
 
 __all__ = [
     "print_pose",
     "print_orientation",
     "support_area",
+    "OVERHANG_DEG",
     "write_stl",
     "write_3mf",
     "rpy_from_matrix",
 ]
 
 
-#: A face overhangs when it faces down steeper than this from the vertical (degrees).
-OVERHANG_DEG = 45.0
-
-
-#: Least area (mm^2) a print pose must rest on.
-MIN_BED_CONTACT = 25.0
-
-
-def _bed_faces(mesh: trimesh.Trimesh, down: np.ndarray) -> np.ndarray:
-    """Faces lying on the bed (the lowest level, facing straight down), bool per face."""
-    height = -(mesh.vertices @ down)  # up is -down
-    bottom = height.min()
-    cos = mesh.face_normals @ down
-    return np.all(height[mesh.faces] < bottom + 1e-3, axis=1) & (cos > 0.999)
-
-
-def support_area(mesh: trimesh.Trimesh, down) -> float:
-    """Area (mm^2) facing down steeper than ``OVERHANG_DEG`` when ``down`` points down.
-
-    Faces that lie on the bed (the lowest level, facing straight down) need no support.
-    """
-    down = np.asarray(down, float) / np.linalg.norm(down)
-    cos = mesh.face_normals @ down
-    steep = (cos > math.cos(math.radians(OVERHANG_DEG)) + 1e-9) & ~_bed_faces(mesh, down)
-    return float(mesh.area_faces[steep].sum())
-
-
-def _rotation_down(down: np.ndarray) -> np.ndarray:
-    """A rotation taking the unit vector ``down`` onto -z."""
-    target = np.array([0.0, 0.0, -1.0])
-    v = np.cross(down, target)
-    c = float(down @ target)
-    if np.linalg.norm(v) < 1e-12:
-        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
-    vx = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
-
-
-def print_orientation(link: CarvedLink) -> tuple[np.ndarray, float]:
+def print_orientation(link: CarvedLink | Manifold) -> tuple[np.ndarray, float]:
     """The link-frame direction put down on the bed and the support area it leaves (mm^2).
 
-    Candidates are the part's stable resting poses: the facets of its convex hull on which
-    it rests with at least ``MIN_BED_CONTACT`` of its own surface. Of these, the one with
-    the least area overhanging more than ``OVERHANG_DEG`` (ties: the larger contact).
+    See ``handarm.carve.printing.print_orientation``; takes a carved link or a solid.
     """
-    mesh = to_trimesh(link.solid)
-    hull = mesh.convex_hull
-    normals = np.vstack([hull.face_normals, np.asarray(hull.facets_normal).reshape(-1, 3)])
-    cands = np.unique(np.round(normals, 6), axis=0)
-    best = None
-    for down in cands:
-        down = down / np.linalg.norm(down)
-        contact = float(mesh.area_faces[_bed_faces(mesh, down)].sum())
-        if contact < MIN_BED_CONTACT:
-            continue
-        key = (round(support_area(mesh, down), 6), -contact)
-        if best is None or key < best[0]:
-            best = (key, down)
-    if best is None:  # nothing flat enough to stand on: its largest face down
-        down = -mesh.face_normals[int(np.argmax(mesh.area_faces))]
-        return -down, support_area(mesh, -down)
-    return best[1], best[0][0]
+    return _print_orientation(_solid(link))
 
 
-def print_pose(link: CarvedLink) -> np.ndarray:
+def print_pose(link: CarvedLink | Manifold) -> np.ndarray:
     """4x4 transform (mm) from the link frame to its pose on the print bed.
 
     Turned so that ``print_orientation``'s direction points down, lying on the bed (z = 0),
     centred on the origin.
     """
-    down, _ = print_orientation(link)
-    rot = np.eye(4)
-    rot[:3, :3] = _rotation_down(down)
-    verts = np.asarray(link.solid.to_mesh().vert_properties)[:, :3] @ rot[:3, :3].T
-    lo, hi = verts.min(axis=0), verts.max(axis=0)
-    m = np.eye(4)
-    m[:3, 3] = [-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]]
-    return m @ rot
+    solid = _solid(link)
+    down, _ = _print_orientation(solid)
+    return pose_on_bed(solid, down)
+
+
+def _solid(link: CarvedLink | Manifold) -> Manifold:
+    return link if isinstance(link, Manifold) else link.solid
 
 
 def _mesh_bytes(mesh: trimesh.Trimesh, file_type: str) -> bytes:

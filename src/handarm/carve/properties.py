@@ -12,7 +12,7 @@ from manifold3d import Manifold
 
 from handarm.carve.carving import CarvedLink
 
-__all__ = ["to_trimesh", "link_properties", "min_cross_section"]
+__all__ = ["to_trimesh", "link_properties", "min_cross_section", "wall_samples", "wall_thickness"]
 
 
 def to_trimesh(solid: Manifold) -> trimesh.Trimesh:
@@ -64,14 +64,14 @@ def link_properties(link: CarvedLink, density: float) -> dict:
 WALL_ANGLE_DEG = 30.0
 
 
-def wall_thickness(
-    solid: Manifold, limit: float, spacing: float = 0.5, seed: int = 0
-) -> tuple[float, float]:
-    """Thinnest wall of a solid (mm) and the surface area (mm^2) where it is below ``limit``.
+def wall_samples(
+    solid: Manifold, spacing: float = 0.5, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the surface of a solid and the wall (mm) behind each: (n, 3), (n,).
 
     Points spread over the surface (about one per ``spacing`` mm squared, plus every face's
     centre) each cast a ray inwards along the surface normal; the distance to where it
-    leaves the solid is the wall there, counted when the exit face is within
+    leaves the solid is the wall there, kept when the exit face is within
     ``WALL_ANGLE_DEG`` of parallel to the start face: a plate, a rib or a knife edge sharper
     than that, not the corner of a block (whose faces meet at 90 degrees).
     """
@@ -86,14 +86,26 @@ def wall_thickness(
     origins = pts - normals * 1e-4
     locs, rays, tris = mesh.ray.intersects_location(origins, -normals, multiple_hits=False)
     if len(rays) == 0:
-        return float("inf"), 0.0
+        return np.zeros((0, 3)), np.zeros(0)
     dist = np.linalg.norm(locs - pts[rays], axis=1)
     # opposite faces only: the exit face must face away from the ray's start face
     cos = np.einsum("ij,ij->i", mesh.face_normals[tris], normals[rays])
     facing = cos < -np.cos(np.radians(WALL_ANGLE_DEG))
-    dist, rays = dist[facing], rays[facing]
+    return pts[rays[facing]], dist[facing]
+
+
+def wall_thickness(
+    solid: Manifold, limit: float, spacing: float = 0.5, seed: int = 0
+) -> tuple[float, float]:
+    """Thinnest wall of a solid (mm) and the surface area (mm^2) where it is below ``limit``.
+
+    The walls are ``wall_samples``'s; each sample stands for an equal share of the surface
+    (its area over the number of points cast).
+    """
+    mesh = to_trimesh(solid)
+    count = int(mesh.area / spacing**2) + len(mesh.faces)
+    _, dist = wall_samples(solid, spacing, seed)
     if len(dist) == 0:
         return float("inf"), 0.0
-    thin = rays[dist < limit]
-    per_point = mesh.area / max(len(pts), 1)
-    return float(dist.min()), float(len(np.unique(thin)) * per_point)
+    per_point = mesh.area / max(count, 1)
+    return float(dist.min()), float(np.count_nonzero(dist < limit) * per_point)
