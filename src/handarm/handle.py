@@ -40,6 +40,7 @@ from manifold3d import CrossSection, Manifold, OpType
 
 from handarm.design import ArmDesign
 from handarm.links import (
+    M3_CLEAR,
     M3_COUNTERBORE,
     M3_PILOT,
     MAST_CLAMP,
@@ -80,7 +81,7 @@ HORN_HEAD_R, HEAD_SINK = 2.25, 2.7
 CENTRE_POCKET_R, CENTRE_POCKET_TOP = 3.3, 4.5
 MIN_HEX_R = (CENTRE_POCKET_R + 1.2) / math.cos(math.pi / 6)  # corner radius, mm
 #: Lead screw: M3, its clearance hole and nut (mm).
-M3_CLEAR, M3_NUT_FLATS, M3_NUT_THICK = 3.4, 5.6, 2.6
+M3_NUT_FLATS, M3_NUT_THICK = 5.6, 2.6
 _SEG = 64
 
 

@@ -463,8 +463,9 @@ def _axle(g: JointGeometry, frame: str) -> Hole:
 #: Length (mm) of the cable exit plate at the end of l0.
 EXIT_PLATE = 4.0
 
-#: Pilot hole (mm) for an M3 screw that cuts its own thread in a printed part.
-M3_PILOT = 2.5
+#: Pilot hole (mm) for an M3 screw that cuts its own thread in a printed part, and the
+#: clearance hole it passes freely.
+M3_PILOT, M3_CLEAR = 2.5, 3.4
 #: M3 socket head: diameter (mm) and the counterbore (mm) that lets it and a hex key pass.
 M3_HEAD, M3_COUNTERBORE = 5.5, 6.5
 #: The bed's mast holds l0 by M3 screws driven up from under the bed: each passes

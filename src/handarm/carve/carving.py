@@ -11,6 +11,7 @@ angle before the two carved links meet (manifold3d intersection volume, bisectio
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 
@@ -88,6 +89,18 @@ class CarveResult:
         workspace map of a build describe.
         """
         return self.design.limited_to([j.achieved for j in self.joints])
+
+    @functools.cached_property
+    def printed(self) -> tuple:
+        """How each link prints, l0..l6: ``handarm.carve.split.split_links`` (on first use).
+
+        A tuple of ``LinkSplit``: each link's cuts, printed parts in their print poses and
+        the fasteners joining them.
+        """
+        # split reads carving (sections, holes): imported here, not at the top
+        from handarm.carve.split import split_links
+
+        return split_links(self)
 
 
 def check_carvable(design: ArmDesign) -> None:
