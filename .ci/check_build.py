@@ -17,6 +17,7 @@ EXPECTED = [
     ("design.toml", "design.toml", 1),
     ("summary.txt", "summary.txt", 1),
     ("meshes/l0.stl", "meshes/l?.stl", 7),
+    ("parts/l0.stl", "parts/l0.stl", 1),
     ("plate.3mf", "plate.3mf", 1),
     ("links/l0.json", "links/l?.json", 7),
     ("carve.json", "carve.json", 1),

@@ -197,13 +197,30 @@ def test_bom_and_assembly_guide(built, tmp_path):
     assert sum(v for k, v in qty.items() if k.startswith("idler")) == 15  # 5+4+3+2+1
     assert all(f"axle joint {j}" in qty for j in range(1, 7))
     assert all(f"cable {c}" in qty for c in range(1, 7))
-    for link in carving.links:
-        row = next(r for r in rows if r["item"] == f"link {link.name}")
-        vol = to_trimesh(link.solid).volume * 1e-3
+    # one row per printed part, with its file; the pins and screws that join them
+    printed = [r for r in rows if r["kind"] == "printed" and r["note"].startswith("parts/")]
+    parts = [p for split in carving.printed for p in split.parts]
+    assert [r["item"] for r in printed] == [p.name for p in parts]
+    for row, part in zip(printed, parts, strict=True):
+        assert row["note"] == f"parts/{part.file_name}" and row["quantity"] == "1"
+        vol = to_trimesh(part.solid).volume * 1e-3
         assert float(row["volume_cm3_each"]) == pytest.approx(vol, abs=0.01)
+        assert float(row["mass_g_each"]) == pytest.approx(vol * d.density * 1e-3, abs=0.01)
+    for split in carving.printed:
+        fasteners = [r for r in rows if r["item"].endswith(f" {split.link.name}")]
+        bought = {(r["item"].rsplit(" ", 1)[0], r["size"]): int(r["quantity"]) for r in fasteners}
+        counts: dict = {}
+        for f in split.fasteners:
+            key = (f.kind, f.size if f.kind == "screw" else f"steel {f.kind} {f.size}")
+            counts[key] = counts.get(key, 0) + 1
+        assert bought == counts, split.link.name
     page = (tmp_path / "assembly.html").read_text()
-    steps = re.findall(r"<h2>Step \d+", page)
+    steps = re.findall(r"<h2>Step \d+: ([^<]*)", page)
     images = re.findall(r'<img src="(assembly/step_\d+\.png)"', page)
     assert len(steps) == len(images) >= 14
+    for split in carving.printed[1:]:  # each split link is joined before it goes in
+        name = split.link.name
+        at = steps.index(f"{name} at joint {split.link.index}")
+        assert (steps[at - 1] == f"{name}: join its parts") == bool(split.fasteners)
     assert all((tmp_path / img).is_file() for img in images)
     assert "handarm bridge calibrate" in page and "Tensioning" in page

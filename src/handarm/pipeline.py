@@ -22,7 +22,7 @@ from handarm._checks import check_design
 from handarm._io import write_text_atomic
 from handarm._outdir import build_folder, check_out_dir
 from handarm._resources import DEFAULT_MAX_MEMORY, DEFAULT_MAX_SECONDS, check_resources
-from handarm.cad_out.carve_files import OUTPUT_STEPS, write_carve_outputs
+from handarm.cad_out.carve_files import OUTPUT_STEPS, printed_summary, write_carve_outputs
 from handarm.carve import CARVE_STEPS, CarveResult, carve, check_carvable
 from handarm.design import ArmDesign
 from handarm.firmware_bridge.export import (
@@ -367,7 +367,8 @@ def build(
         files += paths
         # from here on the arm as printed: requested limits narrowed to what the links allow
         built = carving.as_built
-        write_text_atomic(summary, summary.read_text() + _limits_summary(design, built))
+        lines = _limits_summary(design, built) + printed_summary(carving.printed)
+        write_text_atomic(summary, summary.read_text() + lines)
         files.append(_write_tendons(built, carving, out, summary))
         files += _write_handle(built, carving, out, summary)
         files += export_controller(built, out / "controller")

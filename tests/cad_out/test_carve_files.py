@@ -9,12 +9,12 @@ import yourdfpy
 import handarm
 import handarm.carve.properties
 from handarm.cad_out.carve_files import write_carve_outputs
-from handarm.carve import carve
+from handarm.cad_out.meshes import support_area
 
 
 @pytest.fixture(scope="module")
-def result():
-    return carve(handarm.ArmDesign())
+def result(carved_default):
+    return carved_default
 
 
 @pytest.fixture(scope="module")
@@ -36,11 +36,13 @@ def test_binary_stl_per_link_in_print_pose(result, out):
         assert mesh.is_watertight
 
 
-def test_3mf_plate_holds_every_link(result, out):
+def test_3mf_plate_holds_every_printed_part(result, out):
     scene = trimesh.load(out / "plate.3mf")
-    assert len(scene.geometry) == 7
+    parts = [p for split in result.printed for p in split.parts]
+    assert len(parts) == len(scene.geometry) == 14  # the paper's arm: 1 + 3 + 2 + 2 + 3 + 2 + 1
+    assert sorted(scene.geometry) == sorted(p.name for p in parts)
     volumes = sorted(g.volume for g in scene.geometry.values())
-    expected = sorted(link.solid.volume() for link in result.links)
+    expected = sorted(p.solid.volume() for p in parts)
     np.testing.assert_allclose(volumes, expected, rtol=1e-6)
     # laid out without overlaps: the parts' footprints on the bed are disjoint
     boxes = []
@@ -49,12 +51,35 @@ def test_3mf_plate_holds_every_link(result, out):
         mesh = scene.geometry[geom].copy().apply_transform(transform)
         boxes.append(mesh.bounds)
         assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-4)  # on the bed
-    assert len(boxes) == 7
-    for i in range(7):
-        for j in range(i + 1, 7):
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
             a, b = boxes[i], boxes[j]
             apart = (a[1, :2] <= b[0, :2]) | (b[1, :2] <= a[0, :2])
             assert apart.any(), f"parts {i} and {j} overlap on the plate"
+
+
+def test_printed_parts_need_under_50_mm2_of_support(result, out):
+    """Measured on the written STLs as they lie (z down), with the project's support_area:
+    every part of the paper's arm is under the target, on the bed, one closed body; the
+    JSON's numbers are the files'."""
+    for link in result.links:
+        data = json.loads((out / "links" / f"{link.name}.json").read_text())
+        worst = 0.0
+        for part in data["print"]["parts"]:
+            mesh = trimesh.load(out / part["stl"], file_type="stl")
+            area = support_area(mesh, [0.0, 0.0, -1.0])
+            assert area < 50.0, (part["name"], area)
+            assert area == pytest.approx(part["support_area_mm2"], abs=1e-3)
+            assert mesh.bounds[0, 2] == pytest.approx(0.0, abs=1e-5)
+            assert mesh.is_volume and len(mesh.split(only_watertight=False)) == 1
+            assert mesh.volume == pytest.approx(part["volume_m3"] * 1e9, rel=1e-5)
+            worst = max(worst, area)
+        assert data["support_area_mm2"] == pytest.approx(worst, abs=1e-3)
+        assert data["print"]["target_met"] and data["print"]["problems"] == []
+        assert data["support_area_unsplit_mm2"] >= data["support_area_mm2"]
+    written = sorted(p.name for p in (out / "parts").iterdir())
+    named = sorted(p.file_name for s in result.printed for p in s.parts)
+    assert written == named
 
 
 def test_link_json(result, out):
@@ -70,6 +95,13 @@ def test_link_json(result, out):
         assert data["min_cross_section_m2"] > 0
         assert data["bodies"] == 1 and data["watertight"]
         assert all("achieved_deg" in j for j in data["joints"])
+        printed = data["print"]
+        mass = sum(p["mass_kg"] for p in printed["parts"])
+        assert mass == pytest.approx(data["mass_kg"], rel=0.03)  # less holes and teardrops
+        assert mass < data["mass_kg"] or printed["scheme"] == "whole"
+        for f in printed["fasteners"]:
+            assert set(f["joins"]) <= {p["name"] for p in printed["parts"]}
+            assert f["wall_m"] >= d.min_wall - 1e-9
     summary = json.loads((out / "carve.json").read_text())
     assert len(summary["joints"]) == 6 and len(summary["links"]) == 7
 
@@ -125,3 +157,16 @@ def test_export_with_achieved_limits_from_carve_json(result, out, tmp_path, caps
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "--achieved" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_missed_target_is_reported_in_the_link_json(result):
+    """A split that misses its target still reports: target_met false, the part named."""
+    from handarm.cad_out.carve_files import printed_summary, split_report
+    from handarm.carve.split import split_link
+
+    split = split_link(result, 5, target=5.0)  # l5's fork stands with 15.8 mm^2
+    data = split_report(split, result.design.density)
+    assert data["target_met"] is False and data["target_mm2"] == 5.0
+    assert any(p.startswith("l5 fork: ") for p in data["problems"])
+    assert max(p["support_area_mm2"] for p in data["parts"]) > 5.0
+    assert "target missed: l5 fork" in printed_summary([split])

@@ -2,11 +2,13 @@
 
 ::
 
-    OUT/meshes/l0.stl .. l6.stl   binary STL per link, print pose, mm
-    OUT/plate.3mf                 all links on one plate, mm
+    OUT/meshes/l0.stl .. l6.stl   binary STL per whole link, mm (the URDF and MJCF meshes)
+    OUT/parts/l0.stl, l1_lower_plate.stl, ...   binary STL per printed part, print pose, mm
+    OUT/plate.3mf                 every printed part on one plate, mm
     OUT/links/l0.json .. l6.json  per link: volume, mass, centre of mass, inertia, bounding box,
                                   minimum cross-section, requested and achieved limits (SI),
-                                  print pose, support area, thinnest wall against min_wall
+                                  print pose, support area, thinnest wall against min_wall,
+                                  and how it prints: cuts, parts, fasteners (``print``)
     OUT/carve.json                every link and joint in one file (degrees for limits)
     OUT/pictures/*.png            each link; the arm straight and folded
     OUT/NAME.urdf                 the URDF with the meshes and their inertials
@@ -29,6 +31,7 @@ from handarm.cad_out.meshes import (
     print_pose,
     rpy_from_matrix,
     write_3mf,
+    write_part_stl,
     write_stl,
 )
 from handarm.cad_out.mjcf import write_mjcf
@@ -42,11 +45,13 @@ __all__ = [
     "urdf_mesh_elements",
     "read_achieved_limits",
     "printing_report",
+    "split_report",
+    "printed_summary",
     "OUTPUT_STEPS",
 ]
 
 #: Progress ticks write_carve_outputs makes (for a progress bar's total).
-OUTPUT_STEPS = 7 + 1 + 7 + 9 + 3
+OUTPUT_STEPS = 7 + 1 + 1 + 1 + 7 + 9 + 3
 
 
 def _f(x: float) -> str:
@@ -90,22 +95,107 @@ def urdf_mesh_elements(result: CarveResult, properties, mesh_dir: str = "meshes"
     return extras
 
 
-def printing_report(link, min_wall: float) -> dict:
+def printing_report(link, min_wall: float, split=None) -> dict:
     """Print pose, remaining support area and thinnest wall of one carved link (JSON-ready).
 
     ``min_wall`` is the design's limit (m). ``min_wall_met`` is False where carving left a
-    wall thinner than it (``thin_area_mm2`` says how much surface).
+    wall thinner than it (``thin_area_mm2`` says how much surface). ``print_down_axis`` and
+    ``support_area_mm2`` are the one-piece link's; given the link's ``split``
+    (``handarm.carve.split.LinkSplit``), ``support_area_mm2`` is its worst printed part's
+    and ``support_area_unsplit_mm2`` the one-piece link's.
     """
-    down, support = print_orientation(link)
+    if split is None:
+        down, support = print_orientation(link)
+    else:
+        down, support = split.unsplit_down, split.unsplit_support
     wall, thin = wall_thickness(link.solid, min_wall * 1e3)
-    return {
-        "print_down_axis": [float(round(v, 6)) + 0.0 for v in down],
+    out = {
+        "print_down_axis": _axis(down),
         "support_area_mm2": support,
         "min_wall_m": wall * 1e-3,
         "min_wall_required_m": min_wall,
         "min_wall_met": bool(wall >= min_wall * 1e3 - 1e-9),
         "thin_area_mm2": thin,
     }
+    if split is not None:
+        out["support_area_mm2"] = split.support
+        out["support_area_unsplit_mm2"] = support
+    return out
+
+
+def _axis(v) -> list[float]:
+    return [float(round(x, 6)) + 0.0 for x in v]
+
+
+def _mm_or_none(v: float) -> float | None:
+    """A length in metres from mm; None for none (no cut: no wall 'near a cut')."""
+    return None if not np.isfinite(v) else float(v) * 1e-3
+
+
+def split_report(split, density: float) -> dict:
+    """How a link prints, JSON-ready (SI but areas in mm^2): scheme, cuts, parts, fasteners.
+
+    ``target_met`` is False when a part needs ``target_mm2`` or more of support or the
+    scheme misses something else; ``problems`` says what.
+    """
+    return {
+        "scheme": split.scheme,
+        "target_mm2": split.target,
+        "target_met": not split.problems,
+        "problems": list(split.problems),
+        "cuts": [
+            {"normal": _axis(c.normal), "offset_m": c.offset * 1e-3, "label": c.label}
+            for c in split.cuts
+        ],
+        "parts": [
+            {
+                "name": p.name,
+                "stl": f"parts/{p.file_name}",
+                "volume_m3": p.solid.volume() * 1e-9,
+                "mass_kg": p.solid.volume() * 1e-9 * density,
+                "print_down_axis": _axis(p.down),
+                "support_area_mm2": p.support,
+                "contact_area_mm2": p.contact,
+                "height_m": p.height * 1e-3,
+                "min_wall_m": _mm_or_none(p.min_wall),
+                "min_wall_near_cut_m": _mm_or_none(p.min_wall_near_cut),
+            }
+            for p in split.parts
+        ],
+        "fasteners": [
+            {
+                "kind": f.kind,
+                "size": f.size,
+                "diameter_m": f.diameter * 1e-3,
+                "length_m": f.length * 1e-3,
+                "start_m": [v * 1e-3 for v in f.start],
+                "end_m": [v * 1e-3 for v in f.end],
+                "joins": list(f.joins),
+                "wall_m": f.wall * 1e-3,
+            }
+            for f in split.fasteners
+        ],
+    }
+
+
+def printed_summary(splits) -> str:
+    """Lines for summary.txt: how each link prints, its worst part's support and fasteners."""
+    target = max(s.target for s in splits)
+    lines = [
+        "",
+        f"printed parts (target: under {target:g} mm^2 of support each; links/*.json 'print'):",
+    ]
+    for s in splits:
+        counts: dict[str, int] = {}
+        for f in s.fasteners:
+            counts[f"{f.kind} {f.size}"] = counts.get(f"{f.kind} {f.size}", 0) + 1
+        held = "; " + ", ".join(f"{n} x {k}" for k, n in counts.items()) if counts else ""
+        lines.append(
+            f"  {s.link.name}  {s.scheme:<13}  {len(s.parts)} part(s), worst support "
+            f"{s.support:6.1f} mm^2 (one piece: {s.unsplit_support:6.1f}){held}"
+        )
+        lines += [f"    target missed: {p}" for p in s.problems]
+    return "\n".join(lines) + "\n"
 
 
 def _limits_of(result: CarveResult, k: int) -> list[dict]:
@@ -125,12 +215,18 @@ def write_carve_outputs(
     for link in result.links:
         written.append(write_stl(link, out / "meshes" / f"{link.name}.stl"))
         tick(f"{link.name}.stl")
-    written.append(write_3mf(result.links, out / "plate.3mf"))
+    splits = result.printed
+    tick("parts split")
+    parts = [part for split in splits for part in split.parts]
+    written += [write_part_stl(p, out / "parts" / p.file_name) for p in parts]
+    tick("parts/*.stl")
+    written.append(write_3mf(parts, out / "plate.3mf"))
     tick("plate.3mf")
-    for link in result.links:
+    for link, split in zip(result.links, splits, strict=True):
         p = link_properties(link, design.density)
         p["joints"] = _limits_of(result, link.index)
-        p.update(printing_report(link, design.min_wall))
+        p.update(printing_report(link, design.min_wall, split))
+        p["print"] = split_report(split, design.density)
         props.append(p)
         path = out / "links" / f"{link.name}.json"
         write_text_atomic(path, json.dumps(p, indent=2) + "\n")

@@ -30,9 +30,16 @@ from handarm.handle import BOSS, NUT_BLOCK, TRAVEL, Handle
 from handarm.kinematics import joint_frames
 from handarm.links import MAST_CLAMP, MAST_SCREW_DEPTH, MM, joint_geometry, mast_screws
 
-__all__ = ["write_handle_outputs", "bom_rows", "handle_summary", "assembled_meshes"]
+__all__ = [
+    "write_handle_outputs",
+    "bom_rows",
+    "handle_summary",
+    "assembled_meshes",
+    "split_meshes",
+]
 
 _HANDLE_COLOUR, _SERVO_COLOUR, _PULLEY_COLOUR = "#9aa5ad", "#2b2b2b", "#c9a227"
+_FASTENER_COLOUR = "#3d3d3d"  # steel
 
 
 def _on_bed(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -107,9 +114,10 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
             }
         )
 
-    for link in carving.links:
-        v = float(to_trimesh(link.solid).volume) * 1e-3
-        add(f"link {link.name}", "printed", 1, "", v, v * d.density * 1e-3, "meshes/")
+    for split in carving.printed:
+        for part in split.parts:
+            v = float(to_trimesh(part.solid).volume) * 1e-3
+            add(part.name, "printed", 1, "", v, v * d.density * 1e-3, f"parts/{part.file_name}")
     for name, solid, qty in (
         ("saddle", h.saddle, 6),
         ("motor bed with grip", h.bed, 1),
@@ -147,6 +155,15 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
                 f"{d.joint_pulley_radii[j - 1] * MM:g} mm, width {d.idler_width * MM:g} mm",
                 note="aluminium in the paper",
             )
+    for split in carving.printed:
+        for (kind, size), group in _fastener_groups(split).items():
+            add(
+                f"{kind} {split.link.name}",
+                "bought",
+                len(group),
+                _BOUGHT[kind] + size,
+                note=_FASTENER_NOTES[kind].format(link=split.link.name),
+            )
     lead = NUT_BLOCK + TRAVEL + BOSS + 6.0
     add("horn screw", "bought", 6 * servo.horn_bolts, servo.horn_bolt, note="pulley flange")
     add("case screw", "bought", 24, servo.case_screw, note="servo into saddle")
@@ -172,6 +189,23 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
     return rows
 
 
+#: How each kind of fastener is bought, and what the bill of materials says it does.
+_BOUGHT = {"pin": "steel pin ", "dowel pin": "steel dowel pin ", "screw": ""}
+_FASTENER_NOTES = {
+    "pin": "cut from silver steel rod; through the fork bridge of all three of {link}'s slabs",
+    "dowel pin": "ISO 8734; locates {link}'s fork on its beam",
+    "screw": "through {link}'s fork bridge into its beam (cuts its own thread)",
+}
+
+
+def _fastener_groups(split) -> dict[tuple[str, str], list]:
+    """A link's fasteners by kind and size, in the order they come."""
+    groups: dict[tuple[str, str], list] = {}
+    for f in split.fasteners:
+        groups.setdefault((f.kind, f.size), []).append(f)
+    return groups
+
+
 def _bom_csv(rows: list[dict]) -> str:
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
@@ -193,11 +227,46 @@ def assembled_meshes(h: Handle, carving: CarveResult, q=None) -> list[tuple[str,
         out.append((f"pulley {k + 1}", to_trimesh(pulley), _PULLEY_COLOUR))
     for link in carving.links:
         mesh = to_trimesh(link.solid)
-        if link.index > 0:
-            m = frames[link.index - 1].copy()
-            m[:3, 3] *= MM
-            mesh.apply_transform(m)
+        mesh.apply_transform(_link_to_base(frames, link.index))
         out.append((link.name, mesh, _COLOURS[link.index]))
+    return out
+
+
+def _link_to_base(frames, k: int) -> np.ndarray:
+    """4x4 (mm) from link k's frame into the base frame, at the frames' pose."""
+    if k == 0:
+        return np.eye(4)
+    m = frames[k - 1].copy()
+    m[:3, 3] *= MM
+    return m
+
+
+#: How far (mm) the parts of a split link are drawn apart, and its fasteners out of them.
+_EXPLODE = 12.0
+
+
+def split_meshes(split, to_base: np.ndarray) -> list[tuple[str, object, str]]:
+    """(name, trimesh in the base frame mm, colour) of a split link, drawn apart.
+
+    The parts move apart along the cut, the fasteners (steel grey) come backwards out of
+    the first part they enter: the picture of the step that joins them.
+    """
+    normal = np.asarray(split.cuts[0].normal, float)
+    shift = {p.name: normal * _EXPLODE * i for i, p in enumerate(split.parts)}
+    out = []
+    for part in split.parts:
+        mesh = to_trimesh(part.solid)
+        mesh.apply_translation(shift[part.name])
+        mesh.apply_transform(to_base)
+        out.append((part.name, mesh, _COLOURS[split.link.index]))
+    for f in split.fasteners:
+        # out of the first part it enters, backwards along its way in
+        start, end = np.asarray(f.start, float), np.asarray(f.end, float)
+        back = (start - end) / np.linalg.norm(start - end)
+        move = shift[f.joins[0]] + back * _EXPLODE
+        mesh = trimesh.creation.cylinder(f.diameter / 2, segment=[end + move, start + move])
+        mesh.apply_transform(to_base)
+        out.append((f"{f.kind} {split.link.name}", mesh, _FASTENER_COLOUR))
     return out
 
 
@@ -229,7 +298,9 @@ _STEPS = [
     (
         "Print the parts",
         None,
-        "Print every part of bom.csv marked 'printed' (meshes/ and handle/).",
+        "Print every part of bom.csv marked 'printed' (parts/ and handle/, or plate.3mf "
+        "and handle/), each as its STL lies: flat faces on the bed, no support needed but "
+        "where links/*.json says (print.parts, support_area_mm2).",
     ),
     (
         "Motor bed",
@@ -299,6 +370,28 @@ def write_handle_outputs(h: Handle, carving: CarveResult, out: str | Path) -> li
     return written
 
 
+def _join_text(split) -> str:
+    """The assembly step that joins a split link's parts."""
+    name = split.link.name
+    files = ", ".join(f"parts/{p.file_name}" for p in split.parts)
+    groups = _fastener_groups(split)
+    bought = "; ".join(f"{len(g)} x {_BOUGHT[kind]}{size}" for (kind, size), g in groups.items())
+    if split.scheme == "slabs":
+        how = (
+            f"Push the pins through the fork bridge of {name}'s middle slab, then the lower "
+            "and the upper plate over their ends (a drop of glue holds them). The axle of "
+            "the fork's joint clamps the plates to it at the hub."
+        )
+    else:
+        how = (
+            f"Push the dowel pins into {name}'s beam end, fit the fork over them and drive "
+            "the M3 screw through the fork bridge into the beam (2.5 mm hex key; it cuts "
+            "its own thread). Do it now: once the next link is in the fork, its plates hide "
+            "the screw's head."
+        )
+    return f"{name} prints as {len(split.parts)} parts ({files}); it takes {bought}. {how}"
+
+
 def _write_assembly(h, carving, meshes, rows, out: Path) -> list[Path]:
     d = h.design
     steps = list(_STEPS)
@@ -311,7 +404,15 @@ def _write_assembly(h, carving, meshes, rows, out: Path) -> list[Path]:
             "l0's pilot holes. Its cable exit faces the servos.",
         )
     )
+    frames = joint_frames(d, np.zeros(6))
     for k in range(1, 7):
+        split = carving.printed[k]
+        if split.fasteners:
+            scene = [
+                (name, _for_picture(mesh), colour)
+                for name, mesh, colour in split_meshes(split, _link_to_base(frames, k))
+            ]
+            steps.append((f"l{k}: join its parts", scene, _join_text(split)))
         g = joint_geometry(d, k)
         idlers = f", with {g.idlers} idler(s) on the axle beside the tongue" if g.idlers else ""
         steps.append(
@@ -358,7 +459,11 @@ def _write_assembly(h, carving, meshes, rows, out: Path) -> list[Path]:
     shown: list[int] = []
     for i, (title, parts, text) in enumerate(steps, start=1):
         img = ""
-        if parts is not None:
+        if parts and isinstance(parts[0], tuple):  # a scene of its own: a link's parts
+            pic = out / "assembly" / f"step_{i:02d}.png"
+            written.append(_picture(parts, set(), pic, f"step {i}: {title}"))
+            img = f'<img src="assembly/{pic.name}" alt="{html.escape(title)}">'
+        elif parts is not None:
             prefixes = parts.split() if isinstance(parts, str) else parts
             new = [
                 j

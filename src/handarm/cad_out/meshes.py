@@ -1,8 +1,9 @@
-"""Mesh files of carved links: binary STL per link and a 3MF plate, in millimetres.
+"""Mesh files of carved links: binary STL per link and per printed part, a 3MF plate, in mm.
 
-Each link is written in its print pose: its proximal axle vertical, lying on the bed
-(z = 0), centred on the origin. ``print_pose`` gives the transform from the link frame,
-so the URDF can place the same file back.
+Each link is written whole in the pose it would print in alone (``print_pose``: lying on
+the bed, z = 0, centred on the origin), so the URDF can place the same file back. What is
+printed are the links' parts (``handarm.carve.split``), each in its own print pose: one STL
+per part and all of them on the 3MF plate.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ __all__ = [
     "support_area",
     "OVERHANG_DEG",
     "write_stl",
+    "write_part_stl",
     "write_3mf",
     "rpy_from_matrix",
 ]
@@ -70,19 +72,31 @@ def write_stl(link: CarvedLink, path: str | os.PathLike[str]) -> Path:
     return path
 
 
-def write_3mf(links, path: str | os.PathLike[str], gap: float = 6.0) -> Path:
-    """One 3MF plate with every link in its print pose, in rows (mm), written atomically."""
+def write_part_stl(part, path: str | os.PathLike[str]) -> Path:
+    """Binary STL of a printed part (``handarm.carve.split.PrintedPart``) in its print pose."""
+    mesh = to_trimesh(part.solid)
+    mesh.apply_transform(part.pose)
+    path = Path(path)
+    write_bytes_atomic(path, _mesh_bytes(mesh, "stl"))
+    return path
+
+
+def write_3mf(parts, path: str | os.PathLike[str], gap: float = 6.0) -> Path:
+    """One 3MF plate with every printed part in its print pose, in rows (mm), atomically.
+
+    ``parts`` are ``handarm.carve.split.PrintedPart`` (a name, a solid and a pose each).
+    """
     scene = trimesh.Scene()
     x = y = row_depth = 0.0
     width = 220.0  # a common bed
-    for link in links:
-        mesh = to_trimesh(link.solid)
-        mesh.apply_transform(print_pose(link))
+    for part in parts:
+        mesh = to_trimesh(part.solid)
+        mesh.apply_transform(part.pose)
         size = mesh.bounds[1] - mesh.bounds[0]
         if x > 0 and x + size[0] > width:
             x, y, row_depth = 0.0, y + row_depth + gap, 0.0
         mesh.apply_translation([x - mesh.bounds[0, 0], y - mesh.bounds[0, 1], 0.0])
-        scene.add_geometry(mesh, node_name=link.name, geom_name=link.name)
+        scene.add_geometry(mesh, node_name=part.name, geom_name=part.name)
         x += size[0] + gap
         row_depth = max(row_depth, size[1])
     buf = io.BytesIO()

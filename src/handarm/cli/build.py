@@ -57,6 +57,7 @@ def cmd_build(args: argparse.Namespace) -> int:
 
 def cmd_carve(args: argparse.Namespace) -> int:
     """Carve the links and print the limits they allow."""
+    from handarm.cad_out.carve_files import printed_summary
     from handarm.pipeline import carve_design
 
     carving, files = carve_design(
@@ -76,6 +77,7 @@ def cmd_carve(args: argparse.Namespace) -> int:
         )
     mass = sum(link.solid.volume() for link in carving.links) * 1e-9 * carving.design.density
     print(f"total link mass {mass * 1e3:.1f} g")
+    print(printed_summary(carving.printed).lstrip("\n"), end="")
     print(f"wrote {len(files)} files into {args.out}")
     return 0
 
