@@ -14,6 +14,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
@@ -22,6 +23,9 @@ from handarm._checks import check_design
 from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, prism, sweep_parts
 from handarm.design import MIN_BORE_WALL, ArmDesign
 from handarm.links import MM, Groove, Hole, LinkBlank, Part, link_blank
+
+if TYPE_CHECKING:
+    from handarm.carve.split import LinkSplit
 
 __all__ = ["CarvedLink", "JointReport", "CarveResult", "carve", "check_carvable"]
 
@@ -91,7 +95,7 @@ class CarveResult:
         return self.design.limited_to([j.achieved for j in self.joints])
 
     @functools.cached_property
-    def printed(self) -> tuple:
+    def printed(self) -> tuple[LinkSplit, ...]:
         """How each link prints, l0..l6: ``handarm.carve.split.split_links`` (on first use).
 
         A tuple of ``LinkSplit``: each link's cuts, printed parts in their print poses and

@@ -384,6 +384,7 @@ class _Context:
     min_wall: float
     link_wall: float
     target: float
+    unsplit: tuple[np.ndarray, float]  # the one-piece link's pose and support
 
     @property
     def link(self) -> CarvedLink:
@@ -527,7 +528,7 @@ def _candidate(ctx: _Context, scheme: str, cuts: tuple[Cut, ...]) -> LinkSplit |
             problems.append(f"{part.name}: not one watertight body")
         if part.min_wall_near_cut < min(ctx.min_wall, ctx.link_wall) - 0.02:
             problems.append(f"{part.name}: a {part.min_wall_near_cut:.2f} mm wall at a cut")
-    down, support = print_orientation(link.solid)
+    down, support = ctx.unsplit
     return LinkSplit(
         link, scheme, cuts, parts, tuple(fasteners), down, support, ctx.target, tuple(problems)
     )
@@ -567,6 +568,7 @@ def split_link(result: CarveResult, k: int, target: float = SUPPORT_TARGET) -> L
         result.design.min_wall * MM,
         float(walls.min()) if len(walls) else math.inf,
         target,
+        print_orientation(link.solid),
     )
     tried = []
     for family in _schemes(ctx):
