@@ -74,11 +74,16 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
     assert second["computed"] == 2 and second["reused"] == 1
     third = run_study(study, tmp_path / "a", workers=2)
     assert third["computed"] == 0 and third["reused"] == 3
-    # the same numbers whatever the number of workers
+    # the same numbers whatever the number of workers: the maps exactly; the mass (and the
+    # score it enters) to 1e-9, because manifold3d's parallel booleans may order a solid's
+    # triangles differently from run to run (elalish/manifold#1033 dropped its deterministic
+    # flag), which moves a volume sum in its last bits (seen on CI: 6e-14 kg in 0.063 kg)
     other = run_study(study, tmp_path / "b", workers=1)
     for r1, r2 in zip(third["rows"], other["rows"], strict=True):
-        for key in ("reachable_volume_m3", "dexterous_volume_m3", "mass_kg", "score"):
+        for key in ("reachable_volume_m3", "dexterous_volume_m3"):
             assert r1[key] == r2[key]
+        for key in ("mass_kg", "score"):
+            assert r1[key] == pytest.approx(r2[key], rel=1e-9, abs=0)
     rows = list(csv.DictReader((tmp_path / "a" / "results.csv").open()))
     assert [r["name"] for r in rows] == ["limit_deg_2=120", "limit_deg_2=150", "narrow-5"]
     assert any(r["pareto"] == "True" for r in rows)
