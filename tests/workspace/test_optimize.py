@@ -79,6 +79,140 @@ def test_nsga2_generation_size_comes_from_the_file(opt_file):
     assert load_opt(opt_file).population == 20  # ten generations in 200 trials
 
 
+TWO_LIMITS = """
+name = "two"
+population = 2
+[map]
+voxel = 0.06
+directions = 4
+[variables]
+limit_deg_2 = {low = 90, high = 170}
+limit_deg_5 = {low = 90, high = 170}
+[objectives]
+reachable_volume = "maximize"
+mass = {direction = "minimize", reference = 200}
+"""
+
+
+def test_nsga2_children_blend_their_parents_and_stay_in_the_box(tmp_path):
+    """Children fill the gap between two parents and take small steps off their values.
+
+    Optuna's default operators only swap the parents' values or draw a variable anew over
+    its whole range, so a child is rarely near a good design: about half of the children
+    below would copy a parent's limit_deg_2, and more than a third would lose the box edge
+    (170) both parents share.
+    """
+    import optuna
+
+    from handarm.workspace.optimize import _ask, _distributions, _sampler
+
+    path = tmp_path / "two.toml"
+    path.write_text(TWO_LIMITS)
+    opt = load_opt(path)
+    study = optuna.create_study(directions=["maximize", "minimize"])
+    study.sampler = _sampler(opt, "nsga2", 0)
+    dists = _distributions(opt)
+    for a in (100.0, 140.0):  # the first generation: two parents on the box's upper edge
+        study.enqueue_trial({"limit_deg_2": a, "limit_deg_5": 170.0})
+        t = _ask(study, dists)
+        study.tell(t, [a, 100.0 + a])  # neither dominates the other
+    children = [study.ask(dists) for _ in range(400)]  # all of generation 1: not told
+    kids = np.array([[t.params["limit_deg_2"], t.params["limit_deg_5"]] for t in children])
+    a, b = kids.T
+    assert np.all((kids >= 90) & (kids <= 170))  # in the box, though BLX reaches past 170
+    assert np.mean(b >= 160) > 0.95  # the shared edge value moves by small steps only
+    assert np.mean((a > 100) & (a < 140)) > 0.45  # new values between the parents ...
+    assert np.mean(np.isin(a, (100.0, 140.0))) < 0.1  # ... rather than a parent's copied
+
+
+def test_nsga2_breeds_from_the_space_filling_first_generation(tmp_path):
+    """The queued first generation is NSGA-II's generation 0, so its designs are the parents.
+
+    Optuna files a trial in a generation only when it samples it, and it never samples a
+    queued trial: the corners and the Latin hypercube used to belong to no generation, and
+    the first generation NSGA-II bred from was the next ``population`` random trials.
+    """
+    from handarm.workspace.optimize import _distributions, ask_new, first_generation, open_study
+
+    path = tmp_path / "two.toml"
+    path.write_text(TWO_LIMITS.replace("population = 2", "population = 4"))
+    opt = load_opt(path)
+    study = open_study(opt, tmp_path / "run", "nsga2")
+    dists, seen = _distributions(opt), {}
+    first = []
+    for _ in range(4):
+        t = ask_new(opt, study, dists, seen)
+        first.append(t.params)
+        study.tell(t, [t.params["limit_deg_2"], 100.0 + t.params["limit_deg_5"]])
+    assert first == first_generation(opt, 4)
+    child = ask_new(opt, study, dists, seen)
+    sampler = study.sampler
+    frozen = study.get_trials(deepcopy=False)
+    key = sampler._get_generation_key()  # read, not computed: asking would file it
+    assert [t.system_attrs.get(key) for t in frozen] == [0, 0, 0, 0, 1]
+    parents = sampler.get_parent_population(study, 1)
+    assert parents and all(p.params in first for p in parents)
+    assert child.number == 4
+
+
+def test_nsga2_elite_keeps_the_front_with_the_most_hypervolume(tmp_path):
+    """The last front is cut by hypervolume, not by crowding distance.
+
+    Crowding distance divides each objective by its range, so a design that is the best in
+    payload by 0.04 % (D) is kept as an extreme; the hypervolume cut keeps the knee (C).
+    An infeasible design is never preferred to a feasible one, however good its values.
+    """
+    import itertools
+
+    import optuna
+    from optuna.samplers.nsgaii._elite_population_selection_strategy import (
+        NSGAIIElitePopulationSelectionStrategy,
+    )
+
+    from handarm.workspace.optimize import _HypervolumeElite
+
+    path = tmp_path / "o.toml"
+    path.write_text(
+        "population = 3\n"
+        + TWO_LIMITS.replace("population = 2", "").split("[objectives]")[0]
+        + '[objectives]\nreachable_volume = "maximize"\nmin_cross_section = "maximize"\n'
+        + 'payload = "maximize"\n'
+    )
+    opt = load_opt(path)
+    points = {
+        "A": (10.0, 1.0, 1.2100),
+        "B": (1.0, 10.0, 1.2100),
+        "C": (7.0, 7.0, 1.2100),
+        "D": (6.0, 6.5, 1.2105),
+        "E": (2.0, 9.0, 1.2101),
+    }
+    study = optuna.create_study(directions=["maximize"] * 3)
+    for name, values in points.items():
+        study.add_trial(
+            optuna.trial.create_trial(
+                values=list(values), user_attrs={"name": name}, constraints={"mass": -1.0}
+            )
+        )
+    study.add_trial(  # best in everything, but infeasible
+        optuna.trial.create_trial(
+            values=[20.0, 20.0, 1.3], user_attrs={"name": "X"}, constraints={"mass": 5.0}
+        )
+    )
+    trials = study.get_trials()
+
+    def hv(elite):
+        return hypervolume(opt, [t.values for t in elite])
+
+    elite = _HypervolumeElite(opt)(study, list(trials))
+    assert len(elite) == 3 and "X" not in {t.user_attrs["name"] for t in elite}
+    feasible = [t for t in trials if t.user_attrs["name"] != "X"]
+    best = max(hv(c) for c in itertools.combinations(feasible, 3))
+    assert hv(elite) == pytest.approx(best)
+    assert "C" in {t.user_attrs["name"] for t in elite}
+    crowded = NSGAIIElitePopulationSelectionStrategy(population_size=3)(study, list(trials))
+    assert hv(crowded) < 0.9 * best  # Optuna's own cut loses the knee here
+
+
 def test_search_starts_from_the_corners_and_a_latin_hypercube(opt_file, tmp_path):
     """NSGA-II's first generation is space-filling, holds the box's corners, and is what runs."""
     from handarm.workspace.optimize import first_generation

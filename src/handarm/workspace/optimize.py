@@ -230,7 +230,7 @@ def _sampler(opt: OptFile, name: str, seed: int):
     import optuna
 
     if name == "nsga2":
-        return optuna.samplers.NSGAIISampler(population_size=opt.population, seed=seed)
+        return _nsga2(opt, seed)
     if name == "tpe":
         # multivariate: the variables' joint density (limits of two joints trade together);
         # constant liar: trials in flight count as bad so two workers are not asked the
@@ -251,6 +251,92 @@ def _sampler(opt: OptFile, name: str, seed: int):
         if v.integer:
             space[v.name] = sorted({int(round(x)) for x in space[v.name]})
     return _AskTellGrid(space, seed=seed)
+
+
+def _nsga2(opt: OptFile, seed: int):
+    """Optuna's NSGA-II with real-coded variation and a hypervolume-cut elite.
+
+    Optuna's defaults suit mixed spaces: uniform crossover only swaps the parents' values and
+    a "mutated" variable is drawn anew, uniformly over its range, so no child is ever *near*
+    a good design, and a front whose best points sit on a cliff (a carving limit, a step of
+    one voxel in a volume) is found only by luck. Here, for numeric variables:
+
+    - BLX-0.5 crossover (Eshelman and Schaffer's blend): each variable uniform over the
+      parents' interval widened by half its length, so children fill the gaps between two
+      front designs and reach a little beyond them; a child outside the box is drawn again
+      (Optuna's rule), so every design is within the bounds;
+    - polynomial mutation, distribution index 20, probability 1 / number of variables
+      (Deb's NSGA-II settings): a small step, bounded so that it stays in the box and can
+      reach its edges.
+
+    Categorical variables keep Optuna's uniform crossover and random resampling. The last
+    non-dominated front that does not fit in the population is cut by hypervolume (greedy
+    subset selection against the objectives' references, ``_HypervolumeElite``) instead of
+    crowding distance.
+    """
+    import optuna
+    from optuna.samplers.nsgaii import BLXAlphaCrossover, PolynomialMutation
+
+    with warnings.catch_warnings():
+        # these building blocks are marked experimental in Optuna 5; their behaviour is
+        # pinned by the tests
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        return optuna.samplers.NSGAIISampler(
+            population_size=opt.population,
+            crossover=BLXAlphaCrossover(alpha=0.5),
+            mutation=PolynomialMutation(eta=20.0),
+            elite_population_selection_strategy=_HypervolumeElite(opt),
+            seed=seed,
+        )
+
+
+class _HypervolumeElite:
+    """NSGA-II's elite: whole non-dominated fronts, the last one cut by hypervolume.
+
+    Optuna cuts the last front by crowding distance, which divides each objective's gaps
+    by that objective's range in the population: an objective that hardly moves (payload
+    varies by 0.05 % near the paper's arm) weighs as much as one that moves by a third,
+    and the elite spreads over differences nobody can measure. Greedy hypervolume subset
+    selection (``optuna._hypervolume._solve_hssp``, what Optuna's TPE uses to break the
+    same tie) keeps the designs that add most to the front's hypervolume against the
+    objectives' references: the quantity the run reports. Designs that are infeasible or
+    not better than a reference add no hypervolume and are cut by crowding distance, as
+    in Optuna.
+    """
+
+    def __init__(self, opt: OptFile):
+        self._size = opt.population
+        self._sign = np.array([-1.0 if o.direction == "maximize" else 1.0 for o in opt.objectives])
+        self._ref = self._sign * np.array([o.reference for o in opt.objectives])
+
+    def __call__(self, study, population: list) -> list:
+        from optuna._hypervolume import _solve_hssp
+        from optuna.samplers.nsgaii._elite_population_selection_strategy import (
+            _crowding_distance_sort,
+            _rank_population,
+        )
+        from optuna.study._constrained_optimization import _is_constrained_optimization
+
+        constrained = _is_constrained_optimization(population)
+        elite = []
+        for front in _rank_population(population, study.directions, is_constrained=constrained):
+            if len(elite) + len(front) <= self._size:
+                elite.extend(front)
+                continue
+            n = self._size - len(elite)
+            loss = np.array([t.values for t in front]) * self._sign
+            ok = np.all(loss < self._ref, axis=1)
+            if constrained:
+                ok &= np.array([all(v <= 0 for v in t.constraints.values()) for t in front])
+            idx = np.flatnonzero(ok)
+            if len(idx) > n:
+                idx = _solve_hssp(loss[idx], idx, n, self._ref)
+            chosen = {int(i) for i in idx}
+            rest = [t for i, t in enumerate(front) if i not in chosen]
+            _crowding_distance_sort(rest)
+            elite += [front[i] for i in sorted(chosen)] + rest[: n - len(chosen)]
+            break
+        return elite
 
 
 def check_sampler(opt: OptFile, sampler: str | None = None) -> None:
@@ -359,7 +445,8 @@ def first_generation(opt: OptFile, n: int) -> list[dict]:
     generation rarely holds them), then a scrambled Latin hypercube for the rest, each
     coordinate snapped to its variable's step, integer or choice. Optuna draws the first
     generation at random, which left NSGA-II below a grid of the same budget in half the
-    benchmark's seeds.
+    benchmark's seeds. The set is queued in the journal; ``_ask`` files it as NSGA-II's
+    generation 0, so that it is what the second generation is bred from.
     """
     from scipy.stats import qmc
 
@@ -529,14 +616,31 @@ def ask_new(opt: OptFile, study, dists: dict, seen: dict):
     again, up to ``_MAX_REPEATS`` in a row; the trial returned is entered in ``seen``.
     """
     for _ in range(_MAX_REPEATS):
-        trial = study.ask(dists)
+        trial = _ask(study, dists)
         key = _param_key(trial.params)
         if key not in seen:
             break
         _answer_repeat(opt, study, trial, seen[key])
     else:
-        trial = study.ask(dists)  # converged: measured again, and counted
+        trial = _ask(study, dists)  # converged: measured again, and counted
     seen[_param_key(trial.params)] = trial.number
+    return trial
+
+
+def _ask(study, dists: dict):
+    """``study.ask``, with a queued trial filed in a genetic sampler's current generation.
+
+    Optuna's NSGA-II files a trial in a generation when it samples the trial's parameters.
+    It never samples a queued trial (``first_generation``), so those belonged to no
+    generation: NSGA-II's first generation was the next ``population`` trials, drawn at
+    random, and the corners and the Latin hypercube never became parents. Asking the
+    sampler for the trial's generation files it (``BaseGASampler.get_trial_generation``
+    computes and stores it); a sampled trial already has one.
+    """
+    trial = study.ask(dists)
+    generation = getattr(study.sampler, "get_trial_generation", None)
+    if generation is not None:
+        generation(study, study.get_trials(deepcopy=False)[trial.number])
     return trial
 
 
