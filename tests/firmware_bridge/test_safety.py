@@ -334,6 +334,30 @@ def test_follow_loop_streams_valid_limited_steps(design, tmp_path):
     assert np.linalg.norm(p_end - p) < 2e-3  # the tool reached the target
 
 
+def test_follow_compiles_its_kernels_before_torque_is_on(design, monkeypatch):
+    """No period stalls on a kernel's first use: the warm-up runs while the servos are limp."""
+    import handarm.ik
+    from handarm.firmware_bridge.follow import TargetSource, follow
+    from handarm.kinematics import forward
+
+    p, e = forward(design, np.radians([20, 30, -20, 10, 10, 0]))
+    calls = []
+    real = handarm.ik.warm_up
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+
+        def spy(*args, **kw):
+            calls.append([emu.servos[i].get("torque_enable") for i in design.servo_ids])
+            return real(*args, **kw)
+
+        monkeypatch.setattr(handarm.ik, "warm_up", spy)
+        line = json.dumps({"p": list(p), "e": list(e)})
+        stats = follow(bus, design, cal, TargetSource([line]), rate=100.0, max_periods=20)
+        assert all(emu.servos[i].get("torque_enable") == 1 for i in design.servo_ids)
+    assert calls == [[0] * 6]  # once, before torque on
+    assert stats["warm_up_s"] > 0
+
+
 def _target_line(design, q_deg) -> str:
     from handarm.kinematics import forward
 

@@ -227,6 +227,20 @@ def follow_step(
     return q_cmd, int(result.reached_dof), ()
 
 
+def _warm_up(design: ArmDesign, q, dt: float, limits: MotionLimits, scene, clearance) -> float:
+    """Compile the loop's kernels before torque is on: the IK's and one step's checks (s)."""
+    from handarm.ik import warm_up
+    from handarm.kinematics import forward
+
+    t0 = time.perf_counter()
+    if scene:
+        warm_up(design, scene, clearance + scene_margin(design))
+    else:
+        warm_up(design)
+    follow_step(design, q, forward(design, q), dt, limits, scene, clearance)
+    return time.perf_counter() - t0
+
+
 @serial_checks()  # the whole loop runs the collision kernels on this thread only
 def follow(
     bus: ServoBus,
@@ -247,18 +261,21 @@ def follow(
     With a ``scene`` (obstacles in the handle frame) every streamed step keeps
     ``clearance`` (m) from them (``follow_step``); the present pose must too.
 
-    Checks the servos and the present pose first (``check_state``) and turns torque on
-    holding it. Every period: newest target -> ``follow_step`` -> ``send_sample`` -> one
-    servo's health (``check_health``). A bad target line, a fault or Ctrl-C holds the arm
-    and raises.
+    Checks the servos and the present pose first (``check_state``), compiles every kernel
+    the loop calls (``handarm.ik.warm_up`` and one step from the present pose, so that no
+    period stalls on a first use: about a minute on a fresh install, under a second after)
+    and turns torque on holding it. Every period: newest target -> ``follow_step`` ->
+    ``send_sample`` -> one servo's health (``check_health``). A bad target line, a fault
+    or Ctrl-C holds the arm and raises.
 
     Returns
     -------
     dict
         ``periods``, ``targets``, ``rate`` (achieved, Hz), ``latency_ms`` (target arrival to
         its command on the bus: median, 95th percentile, max), ``period_ms`` (same),
-        ``q`` (last command, rad) and ``blocked_by`` (obstacles that blocked every exact
-        solution of some target, which the arm held before).
+        ``q`` (last command, rad), ``blocked_by`` (obstacles that blocked every exact
+        solution of some target, which the arm held before) and ``warm_up_s`` (the
+        kernels' warm-up before torque on, s).
     """
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
@@ -268,6 +285,7 @@ def follow(
     except PlanningError:
         source.close()
         raise
+    warm_up_s = _warm_up(design, q_cmd, dt, limits, scene, clearance)
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
@@ -282,6 +300,8 @@ def follow(
             arrival = None
             if item is not None:
                 arrival, n, line = item
+                # a line that came during the warm-up waited for the loop, not in it
+                arrival = max(arrival, t0)
                 target = parse_target(line, f"target line {n}")
                 n_targets += 1
             if target is not None:
@@ -329,4 +349,5 @@ def follow(
         "period_ms": stats(periods),
         "q": q_cmd,
         "blocked_by": sorted(blockers),
+        "warm_up_s": warm_up_s,
     }

@@ -2,7 +2,8 @@
 
 ``solve`` answers one target with every solution range (or the closest reachable pose);
 ``solve_batch`` answers N targets in parallel; ``count_solutions`` counts without storing;
-``configuration_at`` gives the joint angles at any point of a range.
+``configuration_at`` gives the joint angles at any point of a range; ``warm_up`` compiles
+every kernel a control loop calls before the loop starts.
 
 Layers point one way: the numba kernels (``_solve`` and below), the exact core
 (``exact``), graceful degradation on top of it (``degrade``), the public ``solve``
@@ -27,6 +28,7 @@ from handarm.ik.results import (
     format_result,
     nearest_solution,
 )
+from handarm.ik.warm import warm_up
 
 __all__ = [
     "MAX_SOLUTIONS",
@@ -43,4 +45,5 @@ __all__ = [
     "solve_batch_iter",
     "solve_exact",
     "solve_in_scene",
+    "warm_up",
 ]
