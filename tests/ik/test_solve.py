@@ -234,6 +234,26 @@ def test_bad_input_names_the_argument(paper, p, e, message):
         ik.solve(paper, p, e)
 
 
+def test_scale_check_follows_the_design_asked_about():
+    """The reach each solve checks against is the design's own, whichever was solved before.
+
+    (``solve`` keeps the last design's model and reach, found by identity.)
+    """
+    small = handarm.ArmDesign(link_lengths=(0.02,) * 7)  # 100 x its reach: 14 m
+    large = handarm.ArmDesign(link_lengths=(0.3,) * 7)  # 210 m
+    p = [20.0, 0.0, 0.0]
+    for _ in range(2):
+        with pytest.raises(ValueError, match=r"^p: .* x the arm's reach \(0\.14 m\)"):
+            ik.solve(small, p, [1, 0, 0])
+        assert ik.solve(large, p, [1, 0, 0]).reached_dof == 2
+        # an equal design that is another object: the same answer
+        again = handarm.ArmDesign(link_lengths=(0.3,) * 7)
+        assert (
+            ik.solve(again, [1.5, 0.3, 0.2], [1, 0, 0]).count
+            == ik.solve(large, [1.5, 0.3, 0.2], [1, 0, 0]).count
+        )
+
+
 def test_bad_batch_row_is_named(paper):
     E = np.ones((5, 3))
     E[3] = 0
@@ -282,3 +302,26 @@ def test_never_a_nan_degraded(p, e):
 @given(p=_POINTS, e=_DIRECTIONS)
 def test_never_a_nan_degraded_many(p, e):
     _check_no_nan(p, e, degrade=True)
+
+
+@pytest.mark.parametrize("field", ["solutions", "intervals", "achieved_position", "follow"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_a_non_finite_number_never_leaves_solve(paper, monkeypatch, field, bad):
+    """The guard behind "no NaN out of the IK" catches one bad number in any array."""
+    import dataclasses
+
+    from handarm.ik import api
+
+    real = api._exact
+
+    def spoiled(*args):
+        r = real(*args)
+        arr = np.array(getattr(r, field), dtype=float)
+        arr.flat[arr.size // 2] = bad
+        return dataclasses.replace(r, **{field: arr})
+
+    monkeypatch.setattr(api, "_exact", spoiled)
+    q = np.radians([10, 20, 30, 40, 50, 60])
+    p, e = handarm.forward(paper, q)
+    with pytest.raises(RuntimeError, match="non-finite number"):
+        ik.solve(paper, p, e, current=q)
