@@ -335,27 +335,45 @@ def test_follow_loop_streams_valid_limited_steps(design, tmp_path):
 
 
 def test_follow_compiles_its_kernels_before_torque_is_on(design, monkeypatch):
-    """No period stalls on a kernel's first use: the warm-up runs while the servos are limp."""
+    """No period stalls on a kernel's first use: the warm-up runs while the servos are limp,
+    and the loop starts from where the arm is after it, not where it was before."""
     import handarm.ik
     from handarm.firmware_bridge.follow import TargetSource, follow
+    from handarm.firmware_bridge.motion import MotionLimits
     from handarm.kinematics import forward
 
     p, e = forward(design, np.radians([20, 30, -20, 10, 10, 0]))
-    calls = []
+    calls, moved = [], []
     real = handarm.ik.warm_up
     with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
         cal = ready(emu, bus, design)
 
         def spy(*args, **kw):
             calls.append([emu.servos[i].get("torque_enable") for i in design.servo_ids])
-            return real(*args, **kw)
+            out = real(*args, **kw)
+            # the user moves the limp arm meanwhile: motor 2 turns by 100 ticks (8.8 deg)
+            emu.servos[2].real += 100
+            emu.servos[2]._sync_present()
+            moved.append(B.check_state(bus, design, cal, 1.0))
+            return out
 
         monkeypatch.setattr(handarm.ik, "warm_up", spy)
         line = json.dumps({"p": list(p), "e": list(e)})
+        before = len(emu.log)
         stats = follow(bus, design, cal, TargetSource([line]), rate=100.0, max_periods=20)
         assert all(emu.servos[i].get("torque_enable") == 1 for i in design.servo_ids)
+        poses = streamed_poses(emu, design, cal, before)
     assert calls == [[0] * 6]  # once, before torque on
     assert stats["warm_up_s"] > 0
+    # torque on holds the moved pose; every command after it is one period's step from the
+    # one before (a loop started from the stale pose would jump back 0.15 rad of motor 2,
+    # more than a period allows)
+    v = MotionLimits(design).velocity
+    tick = 2 * np.pi / 4096
+    assert len(poses) > 3
+    assert np.abs(motor_from_joint(design, poses[0] - moved[0])).max() <= 2 * tick
+    steps = np.abs(motor_from_joint(design, np.diff(poses, axis=0))).max(axis=1)
+    assert steps.max() <= v / 100.0 + 2 * tick
 
 
 def _target_line(design, q_deg) -> str:

@@ -12,6 +12,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import handarm
@@ -96,6 +97,34 @@ def test_warm_up_meets_every_level_on_other_designs():
         info = ik.warm_up(d)
         assert info["levels"] == [2, 3, 4, 5]
         assert info["targets"] >= 10
+
+
+def test_warm_up_starts_from_the_configurations_given(monkeypatch):
+    """A design whose valid set random draws miss warms up from the pose it is given."""
+    from handarm.ik import warm
+
+    d = handarm.ArmDesign()
+    q = np.radians([[10, 20, 30, 40, 50, 60]])
+    assert handarm.is_valid(d, q).all()
+    monkeypatch.setattr(warm, "_DRAWS", 0)  # no random draw finds anything
+    with pytest.raises(ValueError, match="^design: no valid configuration .* configurations"):
+        ik.warm_up(d)
+    info = ik.warm_up(d, configurations=q, batch=False)
+    assert info["levels"] == [2, 3, 4, 5]
+
+
+def test_warm_up_in_a_scene_is_bounded_and_reports_its_levels():
+    from handarm.ik import warm
+    from handarm.scene import Scene
+
+    d = handarm.ArmDesign()
+    table = Scene.empty().with_box([1.0, 1.0, 0.2], [0.0, 0.0, -0.12], name="table")
+    free = ik.warm_up(d)
+    info = ik.warm_up(d, table, 0.004)
+    assert info["scene_levels"] and set(info["scene_levels"]) <= {2, 3, 4, 5}
+    # two exact solves and at most _SCENE_SOLVES more
+    assert info["targets"] <= free["targets"] + 2 + warm._SCENE_SOLVES
+    assert free["scene_levels"] == []
 
 
 def test_warm_up_refuses_what_is_not_a_design():

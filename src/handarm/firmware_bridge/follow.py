@@ -44,7 +44,6 @@ from handarm.firmware_bridge.bus import (
 from handarm.firmware_bridge.calibration import Calibration
 from handarm.firmware_bridge.motion import (
     MotionLimits,
-    PlanningError,
     check_clear,
     check_step,
     scene_margin,
@@ -234,9 +233,10 @@ def _warm_up(design: ArmDesign, q, dt: float, limits: MotionLimits, scene, clear
 
     t0 = time.perf_counter()
     if scene:
-        warm_up(design, scene, clearance + scene_margin(design))
+        margin = clearance + scene_margin(design)
+        warm_up(design, scene, margin, configurations=q, batch=False)
     else:
-        warm_up(design)
+        warm_up(design, configurations=q, batch=False)
     follow_step(design, q, forward(design, q), dt, limits, scene, clearance)
     return time.perf_counter() - t0
 
@@ -263,29 +263,35 @@ def follow(
 
     Checks the servos and the present pose first (``check_state``), compiles every kernel
     the loop calls (``handarm.ik.warm_up`` and one step from the present pose, so that no
-    period stalls on a first use: about a minute on a fresh install, under a second after)
-    and turns torque on holding it. Every period: newest target -> ``follow_step`` ->
+    period stalls on a first use: 85 s measured on a fresh install, about a second after,
+    a few seconds with a scene), reads and checks the present pose again (the arm was limp
+    meanwhile) and turns torque on holding it. Every period: newest target -> ``follow_step`` ->
     ``send_sample`` -> one servo's health (``check_health``). A bad target line, a fault
     or Ctrl-C holds the arm and raises.
 
     Returns
     -------
     dict
-        ``periods``, ``targets``, ``rate`` (achieved, Hz), ``latency_ms`` (target arrival to
-        its command on the bus: median, 95th percentile, max), ``period_ms`` (same),
+        ``periods``, ``targets``, ``rate`` (achieved, Hz), ``latency_ms`` (target arrival,
+        or the loop's start for a target that arrived before it, to its command on the bus:
+        median, 95th percentile, max), ``period_ms`` (same),
         ``q`` (last command, rad), ``blocked_by`` (obstacles that blocked every exact
         solution of some target, which the arm held before) and ``warm_up_s`` (the
         kernels' warm-up before torque on, s).
     """
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
-    q_cmd = check_state(bus, design, calibration, max_torque_fraction)
     try:
+        q_cmd = check_state(bus, design, calibration, max_torque_fraction)
         check_clear(design, q_cmd, scene, clearance, "present pose")
-    except PlanningError:
+        warm_up_s = _warm_up(design, q_cmd, dt, limits, scene, clearance)
+        # the arm was limp during the warm-up (up to a minute): read its pose again, so the
+        # loop starts from where it is now, and check that pose again
+        q_cmd = check_state(bus, design, calibration, max_torque_fraction)
+        check_clear(design, q_cmd, scene, clearance, "present pose")
+    except BaseException:
         source.close()
         raise
-    warm_up_s = _warm_up(design, q_cmd, dt, limits, scene, clearance)
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
