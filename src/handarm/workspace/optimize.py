@@ -263,8 +263,10 @@ def _nsga2(opt: OptFile, seed: int):
 
     - BLX-0.5 crossover (Eshelman and Schaffer's blend): each variable uniform over the
       parents' interval widened by half its length, so children fill the gaps between two
-      front designs and reach a little beyond them; a child outside the box is drawn again
-      (Optuna's rule), so every design is within the bounds;
+      front designs and reach a little beyond them; Optuna brings a child outside the box
+      back into it (Optuna 5: a continuous variable past its upper bound is clipped just
+      under it and one below its lower bound is drawn again; a stepped or integer variable
+      is clipped to the nearer bound), so every design is within the bounds;
     - polynomial mutation, distribution index 20, probability 1 / number of variables
       (Deb's NSGA-II settings): a small step, bounded so that it stays in the box and can
       reach its edges.
@@ -322,6 +324,8 @@ class _HypervolumeElite:
         for front in _rank_population(population, study.directions, is_constrained=constrained):
             if len(elite) + len(front) <= self._size:
                 elite.extend(front)
+                if len(elite) == self._size:
+                    break
                 continue
             n = self._size - len(elite)
             loss = np.array([t.values for t in front]) * self._sign
