@@ -27,7 +27,6 @@ import numpy as np
 
 from handarm._io import read_regular_bytes, write_text_atomic
 from handarm.cad_out.meshes import (
-    print_orientation,
     print_pose,
     rpy_from_matrix,
     write_3mf,
@@ -104,21 +103,17 @@ def printing_report(link, min_wall: float, split=None) -> dict:
     (``handarm.carve.split.LinkSplit``), ``support_area_mm2`` is its worst printed part's
     and ``support_area_unsplit_mm2`` the one-piece link's.
     """
-    if split is None:
-        down, support = print_orientation(link)
-    else:
-        down, support = split.unsplit_down, split.unsplit_support
+    down, support = link.print_orientation  # the one-piece link's (the split's unsplit_*)
     wall, thin = wall_thickness(link.solid, min_wall * 1e3)
     out = {
         "print_down_axis": _axis(down),
-        "support_area_mm2": support,
+        "support_area_mm2": support if split is None else split.support,
         "min_wall_m": wall * 1e-3,
         "min_wall_required_m": min_wall,
         "min_wall_met": bool(wall >= min_wall * 1e3 - 1e-9),
         "thin_area_mm2": thin,
     }
     if split is not None:
-        out["support_area_mm2"] = split.support
         out["support_area_unsplit_mm2"] = support
     return out
 

@@ -15,12 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from manifold3d import Manifold
 
 from handarm._io import write_bytes_atomic
 from handarm.carve.carving import CarvedLink
 from handarm.carve.printing import OVERHANG_DEG, pose_on_bed, support_area
-from handarm.carve.printing import print_orientation as _print_orientation
 from handarm.carve.properties import to_trimesh
 
 __all__ = [
@@ -35,27 +33,23 @@ __all__ = [
 ]
 
 
-def print_orientation(link: CarvedLink | Manifold) -> tuple[np.ndarray, float]:
+def print_orientation(link: CarvedLink) -> tuple[np.ndarray, float]:
     """The link-frame direction put down on the bed and the support area it leaves (mm^2).
 
-    See ``handarm.carve.printing.print_orientation``; takes a carved link or a solid.
+    See ``handarm.carve.printing.print_orientation``; found once per link
+    (``CarvedLink.print_orientation``).
     """
-    return _print_orientation(_solid(link))
+    return link.print_orientation
 
 
-def print_pose(link: CarvedLink | Manifold) -> np.ndarray:
+def print_pose(link: CarvedLink) -> np.ndarray:
     """4x4 transform (mm) from the link frame to its pose on the print bed.
 
     Turned so that ``print_orientation``'s direction points down, lying on the bed (z = 0),
     centred on the origin.
     """
-    solid = _solid(link)
-    down, _ = _print_orientation(solid)
-    return pose_on_bed(solid, down)
-
-
-def _solid(link: CarvedLink | Manifold) -> Manifold:
-    return link if isinstance(link, Manifold) else link.solid
+    down, _ = link.print_orientation
+    return pose_on_bed(link.solid, down)
 
 
 def _mesh_bytes(mesh: trimesh.Trimesh, file_type: str) -> bytes:

@@ -53,6 +53,17 @@ class CarvedLink:
         """Link index 0..6."""
         return self.blank.index
 
+    @functools.cached_property
+    def print_orientation(self) -> tuple[np.ndarray, float]:
+        """The one-piece link's print pose: direction put down, support area (mm^2).
+
+        ``handarm.carve.printing.print_orientation`` of the solid, found once: the split, the
+        STL, the URDF and the MJCF all read it.
+        """
+        from handarm.carve.printing import print_orientation
+
+        return print_orientation(self.solid)
+
 
 @dataclasses.dataclass(frozen=True)
 class JointReport:

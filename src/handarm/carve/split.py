@@ -33,6 +33,7 @@ thickness, and within the bed tolerance the face it follows still counts as lyin
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 
@@ -130,7 +131,7 @@ class PrintedPart:
     min_wall: float
     min_wall_near_cut: float
 
-    @property
+    @functools.cached_property
     def pose(self) -> np.ndarray:
         """4x4 transform (mm) from the link frame to the part's pose on the bed."""
         return pose_on_bed(self.solid, self.down)
@@ -394,6 +395,13 @@ class _Context:
     def design(self):
         return self.result.design
 
+    @functools.cached_property
+    def slab_pins(self) -> tuple[tuple[Fastener, ...], tuple[str, ...]]:
+        """``_stack_pins`` of the slab scheme: the same for every cut level, found once."""
+        names = [f"{self.link.name} {n}".strip() for n in _NAMES["slabs"]]
+        fasteners, trouble = _stack_pins(self, names)
+        return tuple(fasteners), tuple(trouble)
+
     def fork(self) -> tuple[float, float]:
         """(x of the fork bridge's back face, x of its distal face), link frame (mm)."""
         a = self.design.link_lengths[self.k] * MM
@@ -514,7 +522,7 @@ def _candidate(ctx: _Context, scheme: str, cuts: tuple[Cut, ...]) -> LinkSplit |
         pieces.append(Manifold.batch_boolean(bodies, OpType.Add) if bodies else Manifold())
     fasteners: list[Fastener] = []
     if scheme == "slabs":
-        fasteners, trouble = _stack_pins(ctx, names)
+        fasteners, trouble = list(ctx.slab_pins[0]), ctx.slab_pins[1]
         problems += trouble
     elif scheme == "beam and fork":
         beam_down, _ = print_orientation(pieces[0])
@@ -568,7 +576,7 @@ def split_link(result: CarveResult, k: int, target: float = SUPPORT_TARGET) -> L
         result.design.min_wall * MM,
         float(walls.min()) if len(walls) else math.inf,
         target,
-        print_orientation(link.solid),
+        link.print_orientation,
     )
     tried = []
     for family in _schemes(ctx):

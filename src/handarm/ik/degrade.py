@@ -42,13 +42,13 @@ import math
 
 import numpy as np
 
-from handarm.collision import envelopes, kernel_coefficients
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
 from handarm.ik._polish import polish_to_point
 from handarm.ik._search import refine_directions
 from handarm.ik.results import IKResult
 from handarm.kinematics import forward, is_valid
+from handarm.scene import _kernel_args
 
 __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction", "ORDERS"]
 
@@ -91,8 +91,7 @@ def _targets(p: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     P = np.empty((n, 3))
     P[:] = p
     E = dirs / np.sqrt(np.einsum("ij,ij->i", dirs, dirs))[:, None]
-    psi = 0.0 if math.hypot(p[0], p[1]) < 1e-12 else math.atan2(p[1], p[0])
-    return P, E, np.full(n, psi)  # S.vertical_azimuth of P
+    return P, E, np.full(n, S._default_vertical_azimuth(p))  # S.vertical_azimuth of P
 
 
 def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
@@ -306,16 +305,15 @@ def _refine(design, p, e0, starts) -> list[np.ndarray]:
         return []
     starts = np.ascontiguousarray(np.array(starts, dtype=float).reshape(-1, 3))
     out = np.empty_like(starts)
-    env = envelopes(design)
+    pi, pf, n_pieces, coef = _kernel_args(design)
     scene = _SCENE.get()
     if scene is None:
         obs, clearance = np.zeros((0, 16)), 0.0
     else:
         obs, clearance = scene[0].obstacles, float(scene[1])
-    psi = 0.0 if math.hypot(p[0], p[1]) < 1e-12 else math.atan2(p[1], p[0])
     refine_directions(
         np.ascontiguousarray(p, dtype=float),
-        psi,
+        S._default_vertical_azimuth(p),
         np.ascontiguousarray(e0, dtype=float),
         starts,
         _COS_RING,
@@ -327,7 +325,7 @@ def _refine(design, p, e0, starts) -> list[np.ndarray]:
         design.lower,
         design.upper,
         S._model(design, 0.0),
-        (env.pi, env.pf, kernel_coefficients(design), env.pieces_count, obs, clearance),
+        (pi, pf, coef, n_pieces, obs, clearance),
         out,
     )
     return list(out)

@@ -295,10 +295,7 @@ def _model(design: ArmDesign, min_width: float = 0.0) -> tuple:
 def _reach(design: ArmDesign) -> float:
     """a0 + .. + a6 (m), as ``check_scale`` computes it."""
     last = _LAST  # one read: another thread may replace it
-    if last[0] is design:
-        return last[2]
-    _model(design)
-    return float(np.sum(design.lengths))
+    return last[2] if last[0] is design else float(np.sum(design.lengths))
 
 
 @functools.lru_cache(maxsize=64)
