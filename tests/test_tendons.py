@@ -6,6 +6,8 @@ import math
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from manifold3d import OpType
 
 import handarm
@@ -97,6 +99,108 @@ def test_cut_lengths_check_their_arguments():
         cut_lengths(d, motor_run=(0.1, 0.1))
     with pytest.raises(ValueError, match="motor_turns"):
         cut_lengths(d, motor_turns=-1)
+
+
+def test_every_joint_turns_its_whole_achieved_range_with_its_cables_clear(carved):
+    """The independent proof: over each joint's achieved range, the polar sweeps of both
+    links' runs (manifold3d solids, ``swept_overlap``) hold no material of the other link.
+    Fails if ``cable_limits`` lets a joint turn a degree too far."""
+    achieved = [j.achieved for j in carved.joints]
+    for joint in swept_overlap(carved.design, carved, achieved):
+        assert joint["proximal_mm3"] <= 1e-6 and joint["distal_mm3"] <= 1e-6, joint
+
+
+def test_a_cable_limit_lies_just_short_of_a_real_contact(carved):
+    """Where a cable stops a joint, the traced check (the runs' cylinders and the placed
+    meshes intersected) finds that joint's cables meeting a link 10 degrees further on: the
+    limit is not arbitrarily cautious."""
+    design = carved.design
+    poses, which = [], []
+    for j, report in enumerate(carved.joints):
+        assert report.links_meet[0] <= report.achieved[0] < report.achieved[1]
+        assert report.achieved[1] <= report.links_meet[1]
+        for side, sign in ((0, -1.0), (1, 1.0)):
+            if not report.stopped_by[side].startswith("cable"):
+                continue
+            q = np.zeros(6)
+            q[j] = report.achieved[side] + sign * math.radians(10.0)
+            poses.append(q)
+            which.append(j + 1)
+    assert poses  # the printed links do stop some cables before the links meet
+    hits = tendon_report(design, carved, poses=poses)["contacts"]
+    for n, j in enumerate(which):
+        links = {(h["run_on"], h["meets"]) for h in hits if h["pose"] == n}
+        assert links & {(f"l{j - 1}", f"l{j}"), (f"l{j}", f"l{j - 1}")}, (j, poses[n])
+
+
+def test_the_build_uses_the_ranges_the_cables_allow(carved):
+    """``as_built`` (what the URDF, controller and map use) lies within the cable limits,
+    and a joint narrowed by a cable says which."""
+    built = carved.as_built
+    for (lo, hi), report in zip(built.joint_limits, carved.joints, strict=True):
+        assert report.achieved[0] <= lo <= hi <= report.achieved[1]
+    narrowed = [r for r in carved.joints if r.achieved != r.links_meet]
+    assert all("cable" in s for r in narrowed for s in r.stopped_by if s)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.floats(6.0, 30.0),
+    st.floats(-math.pi, math.pi),
+    st.floats(0.5, 8.0),
+    st.floats(-math.pi, math.pi),
+    st.integers(0, 2**31),
+)
+def test_first_contact_against_a_dense_turn(dist, heading, length, start, seed):
+    """A straight run piece (its prism: the hull of circles round its ends) turned in
+    0.05 degree steps meets a cloud of points no earlier than ``_first_contacts`` says,
+    each way. The rings (0.2 mm) over-cover the piece most where a ring grazes its nearest
+    point, so the bound the other way is loose: 20 degrees."""
+    from handarm.carve.sweep import _run_pieces
+    from handarm.tendons import _first_contacts
+
+    rng = np.random.default_rng(seed)
+    a = np.array([dist * math.cos(heading), dist * math.sin(heading), 0.0])
+    b = a + length * np.array([math.cos(heading + 1.0), math.sin(heading + 1.0), 0.0])
+    pieces = [(*piece, "run") for piece in _run_pieces([(a, b)], 0.8)]
+    assert len(pieces) == 1  # a flat run is one piece
+    verts = pieces[0][0]
+    if np.sum(verts[:, 0] * np.roll(verts[:, 1], -1) - np.roll(verts[:, 0], -1) * verts[:, 1]) < 0:
+        verts = verts[::-1]  # counter-clockwise
+    edges = np.roll(verts, -1, axis=0) - verts
+    r = rng.uniform(dist - 3.0, dist + length + 3.0, 150)
+    t = rng.uniform(-math.pi, math.pi, 150)
+    pts = np.column_stack([r * np.cos(t), r * np.sin(t), np.zeros(150)])
+    steps = np.radians(np.arange(0.0, 360.0, 0.05))
+
+    def first_met(sign: float) -> float:
+        """First step at which a point lies in the piece turned by start + sign * step."""
+        ang = t[None, :] - (start + sign * steps)[:, None]  # the points turned back instead
+        x, y = r * np.cos(ang), r * np.sin(ang)
+        inside = np.ones(x.shape, bool)
+        for v, e in zip(verts, edges, strict=True):
+            inside &= e[0] * (y - v[1]) - e[1] * (x - v[0]) >= 0.0
+        hit = np.flatnonzero(inside.any(axis=1))
+        return float(steps[hit[0]]) if len(hit) else math.inf
+
+    if first_met(1.0) == 0.0:
+        return  # a point inside at the start: the contact-at-start case
+    found = _first_contacts(pts, np.zeros(len(pts)), pieces, start)
+    for side, sign in ((0, -1.0), (1, 1.0)):
+        angle, tag = found[side]
+        first = first_met(sign)
+        assert angle <= first + 1e-9, (side, angle, first)
+        if math.isfinite(first):
+            assert tag == "run" and angle >= first - math.radians(20.0), (side, angle, first)
+
+
+@pytest.mark.slow
+def test_cables_run_clear_across_the_achieved_ranges(carved):
+    """q = 0, each joint alone at both ends of its achieved range, and random valid poses:
+    the traced check finds no cable meeting a printed part."""
+    report = tendon_report(carved.as_built, carved, samples=6)
+    assert report["clear"], report["contacts"][:3]
+    assert all(s["proximal_mm3"] <= 1e-6 for s in report["swept_in_the_way_mm3"])
 
 
 @pytest.mark.slow

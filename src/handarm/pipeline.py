@@ -249,12 +249,16 @@ def _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_se
     )
 
 
-def _limits_summary(design: ArmDesign, built: ArmDesign) -> str:
-    """Summary lines: the joint limits the build uses, marked where carving narrowed them."""
+def _limits_summary(design: ArmDesign, carving) -> str:
+    """Summary lines: the joint limits the build uses, and what narrowed them."""
     lines = ["", "joint limits as printed (deg; the URDF, MJCF, controller and map use these):"]
-    pairs = zip(built.joint_limits, design.joint_limits, strict=True)
-    for k, ((lo, hi), asked) in enumerate(pairs):
-        note = "" if (lo, hi) == asked else "  narrowed by the printed parts"
+    built = carving.as_built
+    rows = zip(built.joint_limits, design.joint_limits, carving.joints, strict=True)
+    for k, ((lo, hi), (a, b), report) in enumerate(rows):
+        why = [
+            s for s, narrowed in zip(report.stopped_by, (lo > a, hi < b), strict=True) if narrowed
+        ]
+        note = f"  narrowed: {'; '.join(dict.fromkeys(why))}" if why else ""
         lines.append(f"  joint {k + 1}: {math.degrees(lo):8.2f} .. {math.degrees(hi):7.2f}{note}")
     return "\n".join(lines) + "\n"
 
@@ -367,7 +371,7 @@ def build(
         files += paths
         # from here on the arm as printed: requested limits narrowed to what the links allow
         built = carving.as_built
-        lines = _limits_summary(design, built) + printed_summary(carving.printed)
+        lines = _limits_summary(design, carving) + printed_summary(carving.printed)
         write_text_atomic(summary, summary.read_text() + lines)
         files.append(_write_tendons(built, carving, out, summary))
         files += _write_handle(built, carving, out, summary)

@@ -16,9 +16,9 @@ whole range, or measures the material in the way.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 
+import numba as nb
 import numpy as np
 
 from handarm._checks import check_design
@@ -38,7 +38,7 @@ __all__ = [
     "cut_lengths",
     "tendon_report",
     "tendon_summary",
-    "cable_clear_limits",
+    "cable_limits",
     "swept_overlap",
     "TIE_ALLOWANCE",
     "DEFAULT_MOTOR_RUN",
@@ -145,7 +145,7 @@ def cut_lengths(
 
 
 def _poses(design: ArmDesign, carved: list[tuple[float, float]], samples: int, seed: int):
-    """Poses q = 0, each joint alone at either end of its carved range, and random valid poses."""
+    """Poses q = 0, each joint alone at either end of its range, and random valid poses."""
     from handarm.kinematics import is_valid
 
     poses = [np.zeros(6)]
@@ -185,9 +185,10 @@ def tendon_report(
     32-sided cylinder inside that radius) is placed with its link at each pose and
     intersected (manifold3d) with every carved link placed at the same pose; the arcs lie on
     the pulley and idlers the cable wraps. Poses: q = 0, each joint alone at both ends of its
-    carved range, and ``samples`` random poses within the carved ranges that the design's
-    collision model accepts. ``swept_overlap`` adds, per joint, the proof over the joint's
-    whole range (or what stands in the way).
+    range, and ``samples`` random poses within the ranges that the design's collision model
+    accepts. The ranges are the design's joint limits within what the printed joints allow
+    (``JointReport.achieved``, which the cables' own limits narrow). ``swept_overlap`` adds,
+    per joint, the proof over the joint's whole range (or what stands in the way).
 
     Parameters
     ----------
@@ -205,11 +206,10 @@ def tendon_report(
     -------
     dict
         ``clear`` (bool), ``poses`` (count), ``contacts`` (list of pose, cable, side, link,
-        volume in mm^3), ``cable_clear_deg`` (per joint, how far it turns alone with its
-        cables clear, ``cable_clear_limits``), ``swept_in_the_way_mm3`` (per joint, the
-        material its links would give up for their cables to clear its whole range,
-        ``swept_overlap``), ``cables`` (``CableLength.to_dict`` per cable with
-        ``cut_length_m``).
+        volume in mm^3), ``ranges_deg`` (per joint, the range checked and what ends it),
+        ``swept_in_the_way_mm3`` (per joint, the material its links would give up for their
+        cables to clear that whole range, ``swept_overlap``: zero is the proof that they
+        clear), ``cables`` (``CableLength.to_dict`` per cable with ``cut_length_m``).
 
     Raises
     ------
@@ -227,7 +227,7 @@ def tendon_report(
 
     check_design(design)
     carving = carving if carving is not None else carve(design)
-    carved = [j.carved for j in carving.joints]
+    ranges = design.limited_to([j.achieved for j in carving.joints]).joint_limits
     rc = corridor_radius(design)
     runs = _runs(design)
     cyls = [(k, c, s, _cylinder(a, b, rc, 32)) for k, c, s, a, b in runs]
@@ -236,7 +236,7 @@ def tendon_report(
         for k in {k for k, *_ in cyls}
     }
     if poses is None:
-        poses = _poses(design, carved, samples, seed)
+        poses = _poses(design, ranges, samples, seed)
     else:
         from handarm._checks import check_joints
 
@@ -275,16 +275,20 @@ def tendon_report(
                         )
     lengths = cable_lengths(design)
     cuts = cut_lengths(design)
-    clear_limits = cable_clear_limits(design, carving)
     return {
         "design": design.name,
         "clear": not contacts,
         "poses": len(poses),
-        "cable_clear_deg": [
-            {"joint": j + 1, "lower": math.degrees(lo), "upper": math.degrees(hi)}
-            for j, (lo, hi) in enumerate(clear_limits)
+        "ranges_deg": [
+            {
+                "joint": j + 1,
+                "lower": math.degrees(lo),
+                "upper": math.degrees(hi),
+                "stopped_by": {"lower": r.stopped_by[0], "upper": r.stopped_by[1]},
+            }
+            for j, ((lo, hi), r) in enumerate(zip(ranges, carving.joints, strict=True))
         ],
-        "swept_in_the_way_mm3": swept_overlap(design, carving),
+        "swept_in_the_way_mm3": swept_overlap(design, carving, ranges),
         "cable_radius_plus_clearance_mm": rc,
         "contacts": contacts,
         "cables": [
@@ -305,17 +309,18 @@ def tendon_summary(report: dict) -> str:
             f"cut {c['cut_length_m'] * 1e3:.0f} mm"
         )
     lines.append(
-        "  joints turn alone with their cables clear to (deg): "
-        + ", ".join(f"{c['lower']:.0f}..{c['upper']:.0f}" for c in report["cable_clear_deg"])
+        "  joint ranges checked (deg): "
+        + ", ".join(f"{c['lower']:.1f}..{c['upper']:.1f}" for c in report["ranges_deg"])
     )
-    lines.append(
-        "  printed material in the cables' way over each joint's whole range "
-        "(mm^3, proximal / distal link): "
-        + ", ".join(
-            f"{s['proximal_mm3']:.0f} / {s['distal_mm3']:.0f}"
-            for s in report["swept_in_the_way_mm3"]
+    swept = report["swept_in_the_way_mm3"]
+    if all(s["proximal_mm3"] <= 1e-6 and s["distal_mm3"] <= 1e-6 for s in swept):
+        lines.append("  proved: every joint turns through its whole range with its cables clear")
+    else:
+        lines.append(
+            "  printed material in the cables' way over each joint's whole range "
+            "(mm^3, proximal / distal link): "
+            + ", ".join(f"{s['proximal_mm3']:.2f} / {s['distal_mm3']:.2f}" for s in swept)
         )
-    )
     if report["clear"]:
         lines.append(f"  every cable runs clear of the printed parts at {report['poses']} poses")
     else:
@@ -329,10 +334,10 @@ def tendon_summary(report: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def swept_overlap(design: ArmDesign, carving) -> list[dict]:
+def swept_overlap(design: ArmDesign, carving, ranges=None) -> list[dict]:
     """Per joint, the printed material (mm^3) in the cables' way anywhere in its range.
 
-    Joint j turns l(j) against l(j-1) through its carved range. The free runs on l(j-1)
+    Joint j turns l(j) against l(j-1) through its range. The free runs on l(j-1)
     (cylinders of the cable radius plus clearance, ``links.cable_runs``), seen from l(j),
     sweep a volume that holds every place they take; so do those on l(j), seen from l(j-1)
     (``handarm.carve.sweep.sweep_runs``). No material of the other link inside them proves
@@ -345,7 +350,9 @@ def swept_overlap(design: ArmDesign, carving) -> list[dict]:
     ----------
     design : ArmDesign
     carving : handarm.carve.CarveResult
-        The carved links; each joint is swept over its carved range.
+        The carved links.
+    ranges : sequence of 6 (lower, upper), optional
+        Range (rad) to sweep each joint over; by default its carved range.
 
     Returns
     -------
@@ -369,7 +376,7 @@ def swept_overlap(design: ArmDesign, carving) -> list[dict]:
     out = []
     for j in range(1, 7):
         p_link, d_link = carving.links[j - 1], carving.links[j]
-        lo, hi = carving.joints[j - 1].carved
+        lo, hi = carving.joints[j - 1].carved if ranges is None else ranges[j - 1]
         # l(j-1)'s runs in joint j's frame, which is l(j)'s own frame
         to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
         p_runs = [
@@ -394,53 +401,216 @@ def swept_overlap(design: ArmDesign, carving) -> list[dict]:
     return out
 
 
-def _pinched(prox, dist, prox_runs, dist_runs, q: float) -> bool:
-    """Whether, at joint angle q, the distal link meets the proximal runs or vice versa."""
-    deg = math.degrees(q)
-    if (prox_runs ^ dist.rotate([0.0, 0.0, deg])).volume() > 1e-6:
-        return True
-    return (dist_runs.rotate([0.0, 0.0, deg]) ^ prox).volume() > 1e-6
+#: Spacing (mm) of the surface points that stand for a link in ``cable_limits`` near the
+#: axle; farther out it grows with the distance r from the axle as ``SURFACE_TURN * r``, so
+#: that the angle a point stands for stays under about ``SURFACE_TURN`` rad.
+SURFACE_STEP = 0.2
+SURFACE_TURN = 0.02
 
 
-def cable_clear_limits(design: ArmDesign, carving, step_deg: float = 5.0) -> list[list[float]]:
-    """Per joint, how far (rad, each side) it turns alone before a cable meets a link.
+def _surface_points(solid, r_max: float, z_lo: float, z_hi: float):
+    """Points (n, 3), mm, on the surface of ``solid`` near the axle, and how far apart.
 
-    Only joint j moves: the runs on l(j-1) and l(j) are intersected with the other of the
-    two carved links, stepping ``step_deg`` from 0 towards each carved limit and bisecting
-    the first contact to 0.5 degrees. Returns ``[[lower, upper], ...]`` for joints 1..6;
-    a side that stays clear up to its carved limit returns that limit.
+    Every triangle that may come within ``r_max`` of the z axis between ``z_lo`` and
+    ``z_hi`` is divided into n^2 similar ones with edges under its step (``SURFACE_STEP``,
+    or ``SURFACE_TURN`` times its least distance from the axle if more); their corners are
+    returned with that step. Any point of a triangle lies within its longest edge of each
+    corner, so every surface point there lies within its step of a returned one.
     """
-    from manifold3d import Manifold, OpType
+    mesh = solid.to_mesh()
+    verts = np.asarray(mesh.vert_properties, dtype=float)[:, :3]
+    tris = verts[np.asarray(mesh.tri_verts, dtype=np.int64)]
+    lo, hi = tris.min(axis=1), tris.max(axis=1)
+    # the nearest point of each triangle's box to the axle, seen along z
+    near = np.hypot(np.clip(0.0, lo[:, 0], hi[:, 0]), np.clip(0.0, lo[:, 1], hi[:, 1]))
+    keep = (near <= r_max) & (hi[:, 2] >= z_lo) & (lo[:, 2] <= z_hi)
+    tris, near = tris[keep], near[keep]
+    if not len(tris):
+        return np.empty((0, 3)), np.empty(0)
+    step = np.maximum(SURFACE_STEP, SURFACE_TURN * near)
+    edge = np.max(np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2), axis=1)
+    n = np.maximum(1, np.ceil(edge / step)).astype(np.int64)
+    pts, steps = [], []
+    for k in np.unique(n):
+        i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")
+        grid = i + j <= k
+        u, v = i[grid] / k, j[grid] / k  # barycentric grid
+        t = tris[n == k]
+        a, ab, ac = t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        p = a[:, None, :] + u[None, :, None] * ab[:, None, :] + v[None, :, None] * ac[:, None, :]
+        pts.append(p.reshape(-1, 3))
+        steps.append(np.repeat(step[n == k], len(u)))
+    return np.concatenate(pts), np.concatenate(steps)
 
-    from handarm.carve.carving import _cylinder, _in_joint_frame
-    from handarm.carve.sweep import _affine, frame_to_link
+
+@nb.njit(cache=True, nogil=True)
+def _any_within(rho, z, slack, first, last, r_near, r_far, z0, z1):
+    """Whether a point of first:last may lie, within its slack, in the rings and slab."""
+    for i in range(first, last):
+        sl = slack[i]
+        if r_near - sl <= rho[i] <= r_far + sl and z0 - sl <= z[i] <= z1 + sl:
+            return True
+    return False
+
+
+@nb.njit(cache=True, nogil=True)
+def _piece_contacts(rho, theta, z, slack, first, last, r_near, r_far, z0, z1, low, high, ref):
+    """(turn by -q, turn by +q) before a run piece meets one of the points first:last.
+
+    Ring i of the piece (``_ring_angles``, from ``ref``) spans ``low[i] .. high[i]``; a point
+    stands for every point within its ``slack`` (see ``_first_contacts``).
+    """
+    two_pi = 2.0 * math.pi
+    n = len(low)
+    width = (r_far - r_near) / n
+    best_minus, best_plus = math.inf, math.inf
+    for i in range(first, last):
+        r, sl = rho[i], slack[i]
+        if r < r_near - sl or r > r_far + sl or z[i] < z0 - sl or z[i] > z1 + sl:
+            continue
+        i0 = min(n - 1, max(0, int(math.floor((r - sl - r_near) / width))))
+        i1 = min(n - 1, max(0, int(math.floor((r + sl - r_near) / width))))
+        lo, hi = low[i0], high[i0]
+        for m in range(i0 + 1, i1 + 1):
+            lo, hi = min(lo, low[m]), max(hi, high[m])
+        pad = math.asin(min(1.0, sl / max(r - sl, 1e-12)))
+        lo, hi = lo - pad, hi + pad
+        t = theta[i] - ref
+        if hi - lo >= two_pi or (t - lo) % two_pi <= hi - lo:
+            return 0.0, 0.0
+        # turning by -q the piece covers t when lo - q reaches t; by +q when hi + q does
+        best_minus = min(best_minus, (lo - t) % two_pi)
+        best_plus = min(best_plus, (t - hi) % two_pi)
+    return best_minus, best_plus
+
+
+def _first_contacts(points: np.ndarray, slack: np.ndarray, pieces, start: float):
+    """How far (rad) the run pieces turn from ``start``, each way, before they meet a point.
+
+    ``pieces``: (polygon, z0, z1, tag) from ``sweep._run_pieces``, each a prism holding a
+    piece of cable run. At radius r a piece covers the angles ``_ring_angles`` gives for the
+    ring holding r (as ``sweep_runs`` does); a point at (r, theta) is met when the turned
+    piece's angles reach theta. Each point stands for every surface point within its
+    ``slack`` (mm): the rings it may lie in and the angle ``asin(slack / (r - slack))`` are
+    added. Returns ((angle, tag) turning by -q, (angle, tag) turning by +q), the tag of the
+    piece met first; (inf, None) where nothing is ever met.
+    """
+    from handarm.carve.sweep import _RING, _nearest, _ring_angles
+
+    order = np.argsort(points[:, 2], kind="stable")  # each piece reads a z slab
+    points, slack = points[order], slack[order]
+    z = points[:, 2]
+    rho = np.hypot(points[:, 0], points[:, 1])
+    theta = np.arctan2(points[:, 1], points[:, 0])
+    reach = float(np.max(slack)) if len(slack) else 0.0
+    best = [(math.inf, None), (math.inf, None)]
+    for poly, z0, z1, piece_tag in pieces:
+        r_near = _nearest(poly)
+        r_far = float(np.max(np.linalg.norm(poly, axis=1)))
+        first = int(np.searchsorted(z, z0 - reach, side="left"))
+        last = int(np.searchsorted(z, z1 + reach, side="right"))
+        if not _any_within(rho, z, slack, first, last, r_near, r_far, z0, z1):
+            continue
+        if r_near <= reach:
+            return (0.0, piece_tag), (0.0, piece_tag)  # a run over the axle meets all round
+        c = poly.mean(axis=0)
+        ref = math.atan2(c[1], c[0])
+        n = max(1, math.ceil((r_far - r_near) / _RING))
+        low, high = _ring_angles(poly, np.linspace(r_near, r_far, n + 1), ref)
+        empty = ~np.isfinite(low)  # no extreme found in a ring: take the whole turn
+        low[empty], high[empty] = -math.pi, math.pi
+        found = _piece_contacts(
+            rho, theta, z, slack, first, last, r_near, r_far, z0, z1, low, high, ref + start
+        )
+        for side in range(2):
+            if found[side] < best[side][0]:
+                best[side] = (found[side], piece_tag)
+    return best[0], best[1]
+
+
+def cable_limits(design: ArmDesign, links, ranges) -> list[dict]:
+    """Per joint, how far it turns each way before a cable run meets either of its links.
+
+    Joint j turns l(j) against l(j-1). The free runs on each link (``links.cable_runs``,
+    cylinders of the cable radius plus the print clearance, held in prisms as
+    ``sweep_runs`` holds them) turn with their link; the other link is stood for by points
+    on its surface (``_surface_points``), its pulley left out as in ``swept_overlap``. From
+    the point of the range nearest 0, the first angle at which a point enters a run's
+    angles is found exactly for those prisms, less what a surface point beside it could
+    need: ``swept_overlap`` over the returned range finds no material (a test holds the two
+    together). First contact is made on a surface, so no interior point can enter earlier,
+    provided nothing meets at the start (the traced check of ``tendon_report`` tests q = 0).
+
+    Parameters
+    ----------
+    design : ArmDesign
+    links : sequence of handarm.carve.CarvedLink
+        The carved links l0..l6.
+    ranges : sequence of 6 (lower, upper)
+        Range (rad) to search in per joint; the search starts at its point nearest 0.
+
+    Returns
+    -------
+    list of dict
+        Per joint: ``joint``, ``limits`` (lower, upper) in rad within ``ranges``, and
+        ``stopped_by`` (lower, upper): ``None`` where the range's end is reached, else
+        "cable k on lN meets lM" for the run met first.
+    """
+    from handarm.carve.carving import _in_joint_frame
+    from handarm.carve.sweep import _run_pieces, frame_to_link
 
     rc = corridor_radius(design)
     runs = _runs(design)
+
+    def pieces(link: int, to_joint: np.ndarray):
+        out = []
+        for k, cable, side, a, b in runs:
+            if k != link:
+                continue
+            ends = [(to_joint @ np.array([*pt, 1.0]))[:3] for pt in (a, b)]
+            for poly, z0, z1 in _run_pieces([ends], rc):
+                out.append((poly, z0, z1, (cable, side)))
+        return out
+
+    def points(solid, own):
+        if not own:
+            return np.empty((0, 3)), np.empty(0)
+        r_max = max(float(np.max(np.linalg.norm(p[0], axis=1))) for p in own)
+        z_lo, z_hi = min(p[1] for p in own), max(p[2] for p in own)
+        reach = max(SURFACE_STEP, SURFACE_TURN * r_max)
+        pts, slack = _surface_points(solid, r_max + reach, z_lo - reach, z_hi + reach)
+        keep = np.hypot(pts[:, 0], pts[:, 1]) <= r_max + slack
+        return pts[keep], slack[keep]
+
     out = []
     for j in range(1, 7):
-        p_link, d_link = carving.links[j - 1], carving.links[j]
-        prox = _in_joint_frame(p_link, "dist")
-        dist = _in_joint_frame(d_link, "prox")
+        p_link, d_link = links[j - 1], links[j]
+        lo, hi = ranges[j - 1]
+        s = min(max(0.0, lo), hi)
         to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
-        on_prox = [_cylinder(a, b, rc, 32) for k, _, _, a, b in runs if k == j - 1]
-        on_dist = [_cylinder(a, b, rc, 32) for k, _, _, a, b in runs if k == j]
-        prox_runs = Manifold.batch_boolean(on_prox, OpType.Add).transform(_affine(to_joint))
-        dist_runs = Manifold.batch_boolean(on_dist, OpType.Add) if on_dist else Manifold()
-
-        hit = functools.partial(_pinched, prox, dist, prox_runs, dist_runs)
-        sides = []
-        for end in carving.joints[j - 1].carved:
-            free, bad = 0.0, None
-            n = max(1, math.ceil(abs(math.degrees(end)) / step_deg))
-            for q in np.linspace(0.0, end, n + 1)[1:]:
-                if hit(float(q)):
-                    bad = float(q)
-                    break
-                free = float(q)
-            while bad is not None and abs(bad - free) > math.radians(0.5):
-                mid = 0.5 * (free + bad)
-                free, bad = (free, mid) if hit(mid) else (mid, bad)
-            sides.append(free)
-        out.append(sides)
+        on_dist = pieces(j, np.eye(4))  # l(j)'s frame is joint j's
+        on_prox = pieces(j - 1, to_joint)
+        prox_pts = points(_in_joint_frame(p_link, "dist"), on_dist)
+        # l(j) less its pulley (``swept_overlap``): inside that cylinder's radius nothing
+        # counts, and beyond it the material's edge at each radius lies on l(j)'s surface
+        pts, slack = points(d_link.solid, on_prox)
+        keep = (
+            np.hypot(pts[:, 0], pts[:, 1]) >= joint_geometry(design, j).tongue_radius + PULLEY_SLACK
+        )
+        dist_pts = (pts[keep], slack[keep])
+        # l(j)'s runs turn by +q against l(j-1); l(j-1)'s by -q against l(j)
+        by_dist = _first_contacts(*prox_pts, on_dist, s)
+        by_prox = _first_contacts(*dist_pts, on_prox, -s)
+        limits, stops = [], []
+        for side, (sign, end) in enumerate(((-1.0, lo), (1.0, hi))):
+            found = [(*by_dist[side], j, j - 1), (*by_prox[1 - side], j - 1, j)]
+            angle, tag, run_on, meets = min(found, key=lambda f: f[0])
+            limit = s + sign * angle
+            if sign * (limit - end) >= 0.0:
+                limits.append(end)
+                stops.append(None)
+            else:
+                limits.append(limit)
+                stops.append(f"cable {tag[0]} on l{run_on} meets l{meets}")
+        out.append({"joint": j, "limits": tuple(limits), "stopped_by": tuple(stops)})
     return out

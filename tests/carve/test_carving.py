@@ -40,23 +40,28 @@ def test_adjacent_links_never_meet_in_the_requested_range(carved):
             assert overlap < 1e-6, (j, deg, overlap)
 
 
-def test_achieved_limits_reach_the_request_and_name_the_stop(carved):
+def test_links_meet_beyond_the_request_and_each_stop_is_named(carved):
+    """The links meet beyond the request; the achieved range lies within where they meet
+    (cables may stop it sooner) and each side names what stops it."""
     for report in carved.joints:
         lo, hi = report.requested
         assert report.carved == (lo, hi)
-        assert report.achieved[0] <= lo + 1e-12
-        assert report.achieved[1] >= hi - 1e-12
+        assert report.links_meet[0] <= lo + 1e-12
+        assert report.links_meet[1] >= hi - 1e-12
+        assert report.links_meet[0] <= report.achieved[0] < report.achieved[1]
+        assert report.achieved[1] <= report.links_meet[1]
         for side in report.stopped_by:
             assert " meets " in side
 
 
-def test_achieved_limit_is_where_the_links_meet(carved):
-    """Just past the achieved angle the carved links overlap; just before they do not."""
+def test_links_meet_where_they_first_overlap(carved):
+    """Just past the angle where the links meet the carved links overlap; just before they
+    do not."""
     j = 2
     report = carved.joints[j - 1]
     prox = _in_joint_frame(carved.links[j - 1], "dist")
     dist = _in_joint_frame(carved.links[j], "prox")
-    hi = report.achieved[1]
+    hi = report.links_meet[1]
     before = (prox ^ dist.rotate([0, 0, math.degrees(hi - math.radians(0.01))])).volume()
     after = (prox ^ dist.rotate([0, 0, math.degrees(hi + math.radians(0.2))])).volume()
     assert before < 1e-6 < after
@@ -124,8 +129,9 @@ def test_unreachable_limit_is_reported_not_broken():
     # carving the full range with the neighbours' blanks would cut a link in two
     assert report.carved[1] < math.radians(179)
     # what the carved links allow is reported, and it falls short of the request
-    assert report.achieved[1] < math.radians(179)
-    assert report.achieved[1] >= report.carved[1]
+    assert report.links_meet[1] < math.radians(179)
+    assert report.links_meet[1] >= report.carved[1]
+    assert report.achieved[1] <= report.links_meet[1]
     for link in result.links:
         assert len(link.solid.decompose()) == 1
         assert to_trimesh(link.solid).is_volume

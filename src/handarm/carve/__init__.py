@@ -20,6 +20,6 @@ __all__ = [
 ]
 
 #: Progress ticks ``carve`` makes (for a progress bar's total).
-CARVE_STEPS = 6 + 7 + 6
+CARVE_STEPS = 6 + 7 + 6 + 1
 
 __getattr__, __dir__ = lazy_attributes(__name__, {"carving", "properties", "sweep"})

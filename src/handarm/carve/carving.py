@@ -3,9 +3,11 @@
 At joint j the distal link turns by q in [lo, hi] relative to the proximal one. The
 proximal link loses the volume the distal link sweeps over [lo, hi]; the distal link loses
 what the proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are
-grown by the print clearance. The *achieved* limit of a joint, each side, is the largest
-angle before the two carved links meet (manifold3d intersection volume, bisection to
-0.05 degrees).
+grown by the print clearance. Each side, the links meet at the largest angle before their
+carved solids touch (manifold3d intersection volume, bisection to 0.05 degrees); the
+*achieved* limit is that angle, or less where a cable run would meet one of the two links
+first (``handarm.tendons.cable_limits``): the range over which the printed joint turns with
+its cables clear.
 """
 
 from __future__ import annotations
@@ -67,13 +69,20 @@ class CarvedLink:
 
 @dataclasses.dataclass(frozen=True)
 class JointReport:
-    """Requested, carved and achieved limits of one joint (rad) and what stops it."""
+    """Requested, carved and achieved limits of one joint (rad) and what stops it.
+
+    ``links_meet``: each way, the angle before the two carved links meet. ``achieved``:
+    what the printed joint allows, that range narrowed to where both links' cable runs
+    keep clear of both links (``handarm.tendons.cable_limits``). ``stopped_by`` names what
+    ends ``achieved`` each way: the link features that meet, or the cable.
+    """
 
     joint: int
     requested: tuple[float, float]
     carved: tuple[float, float]
     achieved: tuple[float, float]
     stopped_by: tuple[str, str]
+    links_meet: tuple[float, float]
 
     def to_dict(self) -> dict:
         """JSON-ready, in degrees."""
@@ -82,6 +91,7 @@ class JointReport:
             "requested_deg": [math.degrees(v) for v in self.requested],
             "carved_deg": [math.degrees(v) for v in self.carved],
             "achieved_deg": [math.degrees(v) for v in self.achieved],
+            "links_meet_deg": [math.degrees(v) for v in self.links_meet],
             "stopped_by": {"lower": self.stopped_by[0], "upper": self.stopped_by[1]},
         }
 
@@ -285,7 +295,8 @@ def carve(
     resolution_deg : float
         Largest angle between consecutive poses of a sweep (degrees, 0 < r <= 10).
     progress : callable, optional
-        Called with a short label after each step (12 sweeps, 7 links, 12 limit searches).
+        Called with a short label after each step (6 joints' sweeps, 7 links, 6 joints'
+        limits, the cable limits).
 
     Returns
     -------
@@ -325,10 +336,28 @@ def carve(
         # these sizes), so that STL readers see a closed mesh
         links.append(CarvedLink(blanks[k], solid.simplify(1e-4)))
         tick(f"link l{k} carved")
-    joints = []
+    meet = []
     for j in range(1, 7):
-        joints.append(_joint_report(design, links, j, carve_limits[j - 1]))
+        meet.append(_links_meet(design, links, j, carve_limits[j - 1]))
         tick(f"joint {j} limits")
+    # the cables may stop a joint before its links meet (tendons reads carving: import here)
+    from handarm.tendons import cable_limits
+
+    cables = cable_limits(design, links, [m[0] for m in meet])
+    tick("cable limits")
+    joints = []
+    for j, ((angles, stops), clear) in enumerate(zip(meet, cables, strict=True), start=1):
+        stops = tuple(c or s for c, s in zip(clear["stopped_by"], stops, strict=True))
+        joints.append(
+            JointReport(
+                j,
+                design.joint_limits[j - 1],
+                carve_limits[j - 1],
+                clear["limits"],
+                stops,
+                angles,
+            )
+        )
     return CarveResult(design, tuple(links), tuple(joints), resolution_deg)
 
 
@@ -438,16 +467,17 @@ def _blocking_features(links, j, prox, dist, angle) -> str:
     return f"{names[0]} meets {names[1]}"
 
 
-def _joint_report(design, links, j, carved) -> JointReport:
+def _links_meet(design, links, j, carved) -> tuple[tuple[float, float], tuple[str, str]]:
+    """Each way from the carved range, the angle before the links meet, and what meets."""
     prox = _in_joint_frame(links[j - 1], "dist")
     dist = _in_joint_frame(links[j], "prox")
     lo, hi = carved
-    achieved, stops = [], []
+    angles, stops = [], []
     for start, sign in ((lo, -1.0), (hi, 1.0)):
         angle = _contact_angle(prox, dist, start, sign)
-        achieved.append(angle)
+        angles.append(angle)
         if abs(angle) >= math.pi:
             stops.append("nothing (full turn)")
         else:
             stops.append(_blocking_features(links, j, prox, dist, angle + sign * _LIMIT_TOL))
-    return JointReport(j, design.joint_limits[j - 1], carved, tuple(achieved), tuple(stops))
+    return (angles[0], angles[1]), (stops[0], stops[1])
