@@ -257,6 +257,17 @@ def test_a_target_that_only_collides_names_the_obstacle(design):
     assert r.count == 0 and r.blocked_by == ("fixture",)
 
 
+def test_nothing_clear_of_the_scene_is_an_empty_answer_that_reached_nothing(design):
+    """The whole arm inside an obstacle: no exact or degraded answer keeps clear; the result
+    is empty and says it reached nothing (0), not 5."""
+    q0 = np.radians([20, 30, -40, 30, 40, -20])
+    p, e = handarm.forward(design, q0)
+    scene = Scene.empty().with_box([1.0, 1.0, 1.0], [0.0, 0.0, 0.0], name="room")
+    r = ik.solve(design, p, e, scene=scene, current=q0)
+    assert r.count == 0 and r.reached_dof == 0 and r.follow is None
+    assert r.blocked_by == ("room",)
+
+
 def test_degradation_searches_with_the_scene(design, arm):
     """Exact solutions all blocked: the degraded answer keeps clear (model and meshes)."""
     rng = np.random.default_rng(8)

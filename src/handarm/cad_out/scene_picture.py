@@ -150,7 +150,7 @@ def scene_picture(
     if title is None:
         kept = f"{result.count} range{'s' if result.count != 1 else ''}"
         title = f"{kept} clear of {len(scene)} obstacle{'s' if len(scene) != 1 else ''}"
-        if result.reached_dof < 5:
+        if 0 < result.reached_dof < 5:
             title += f" (degraded to {result.reached_dof} DoF)"
         if result.blocked_by:
             title += f"; exact solutions blocked by {', '.join(result.blocked_by)}"

@@ -539,7 +539,7 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
             best_q, best_err = q, err
     if best_q is None and _SCENE.get() is not None:  # nothing clear of the scene near p
         return IKResult(
-            np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 5, 0.0, 0.0,
+            np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 0, 0.0, 0.0,
             False, 0.0, p.copy(), e.copy(), None,
         )  # fmt: skip
     if best_q is None:  # no valid seed at all: the zero pose is the fallback

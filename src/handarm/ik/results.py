@@ -30,7 +30,8 @@ class IKResult:
     intervals : ndarray, shape (k, 2)
         [u_lo, u_hi] of joint 4 along L for each range (m).
     reached_dof : int
-        5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``).
+        5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``);
+        0 when there is no range (nothing reached).
     position_error, direction_error : float
         Distance (m) and angle (rad) between the target and the pose of ``solutions``.
     vertical : bool
@@ -66,8 +67,8 @@ class IKResult:
         With a scene and no exact range left: the obstacles that block the exact solutions
         (the result is then degraded, or empty when nothing near the target keeps clear).
 
-    A result with no range (``count == 0``) reached nothing: its level and errors are those
-    of the target itself (5, 0, 0).
+    A result with no range (``count == 0``) reached nothing: its ``reached_dof`` is 0
+    whatever it was made with, its errors 0, its achieved pose the target itself.
     """
 
     solutions: np.ndarray
@@ -86,6 +87,12 @@ class IKResult:
     clearances: np.ndarray | None = None
     clearest: np.ndarray | None = None
     blocked_by: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(self.solutions) == 0 and self.reached_dof != 0:
+            # no range reached anything: a loop that tests reached_dof == 5 must not take
+            # an empty answer for an exact one (frozen: set through object)
+            object.__setattr__(self, "reached_dof", 0)
 
     @property
     def count(self) -> int:
@@ -179,13 +186,14 @@ def format_result(result: IKResult) -> str:
     """Human-readable table of an IKResult: joint angles in degrees, ranges in mm."""
     lines = []
     level = {
+        0: "nothing (no solution)",
         5: "5 DoF (exact)",
         4: "4 DoF (pitch or yaw relaxed)",
         3: "3 DoF (position only)",
         2: "2 DoF (out of reach: nearest point, pointing at the target)",
     }
     lines.append(f"reached: {level.get(result.reached_dof, result.reached_dof)}")
-    if result.reached_dof < 5:
+    if 0 < result.reached_dof < 5:
         lines.append(
             f"position error {result.position_error * 1e3:.3f} mm, "
             f"direction error {math.degrees(result.direction_error):.3f} deg"

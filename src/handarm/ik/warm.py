@@ -69,7 +69,7 @@ def warm_up(
     Returns
     -------
     dict
-        ``levels``: the ``reached_dof`` values met without the scene (sorted),
+        ``levels``: the ``reached_dof`` of the answers met without the scene (sorted),
         ``scene_levels``: those met in the scene (empty without one), ``targets``: solves
         run, ``seconds``: wall time.
 
@@ -103,7 +103,8 @@ def warm_up(
         nonlocal n
         n += 1
         result = solve(design, p, e, current, **kw)
-        into.add(int(result.reached_dof))
+        if result.count:  # an empty answer (reached_dof 0) reached no level
+            into.add(int(result.reached_dof))
         return result
 
     if batch:
