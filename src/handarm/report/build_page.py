@@ -59,7 +59,9 @@ _POSE_JS = r"""
     }
     return F;
   }
-  function pose() { return M.sliders.map(s => parseFloat(document.getElementById(s.id).value)); }
+  // the pose shown: a slider snaps to its 0.5 degree steps, a named pose is kept exact
+  let Q = M.sliders.map(s => parseFloat(document.getElementById(s.id).value));
+  function pose() { return Q.slice(); }
   function verdictFor(qdeg) {
     for (const p of M.poses) {
       if (p.q_deg.every((v, i) => Math.abs(v - qdeg[i]) < 1e-6)) return p;
@@ -106,12 +108,16 @@ _POSE_JS = r"""
     window.handarmReport.q_deg = qdeg;
   }
   function setPose(qdeg) {
+    Q = qdeg.slice();
     M.sliders.forEach((s, i) => { document.getElementById(s.id).value = qdeg[i]; });
     update();
   }
   window.handarmReport = {setPose: setPose, frames: q => frames(q), update: update, model: M,
     collisions: q => M.collision ? collidingPairs(M.collision, q) : null};
-  M.sliders.forEach(s => document.getElementById(s.id).addEventListener('input', update));
+  M.sliders.forEach((s, i) => document.getElementById(s.id).addEventListener('input', e => {
+    Q[i] = parseFloat(e.target.value);
+    update();
+  }));
   M.poses.forEach((p, n) => document.getElementById('pose' + n).addEventListener(
     'click', () => setPose(p.q_deg)));
   update();
@@ -240,9 +246,11 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
     for k in range(6):
         sid = f"q{k + 1}"
         sliders.append({"id": sid})
+        # steps of 0.5 degrees from 0, inside the range (the named poses reach its ends)
+        smin, smax = math.ceil(lo[k] / 0.5) * 0.5, math.floor(hi[k] / 0.5) * 0.5
         controls.append(
             f'<label class="slider">joint {k + 1} ({lo[k]:.1f} to {hi[k]:.1f} deg)'
-            f'<input type="range" id="{sid}" min="{lo[k]}" max="{hi[k]}" step="0.5" value="0">'
+            f'<input type="range" id="{sid}" min="{smin}" max="{smax}" step="0.5" value="0">'
             f'<span id="{sid}_v">0 deg</span></label>'
         )
     buttons = "".join(
