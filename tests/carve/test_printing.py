@@ -90,6 +90,27 @@ def test_links_report_their_thinnest_wall_against_min_wall(changes):
         assert strict["support_area_mm2"] == pytest.approx(rep["support_area_mm2"])
 
 
+def test_a_links_walls_are_cast_once_for_the_split_and_the_report(monkeypatch):
+    """The rays behind a link's wall figures are cast once (``CarvedLink.walls``), however
+    many readers ask; the figures are those of a fresh cast."""
+    from handarm.cad_out.carve_files import printing_report
+    from handarm.carve import carve, properties
+
+    design = handarm.ArmDesign()
+    link = carve(design, 5.0).links[2]
+    fresh = wall_thickness(link.solid, design.min_wall * 1e3)
+    casts = []
+    real = properties.wall_samples
+    monkeypatch.setattr(
+        properties, "wall_samples", lambda *a, **k: casts.append(1) or real(*a, **k)
+    )
+    first = printing_report(link, design.min_wall)
+    again = printing_report(link, design.min_wall)
+    assert len(casts) == 1 and link.walls is link.walls
+    assert first["min_wall_m"] == again["min_wall_m"] == pytest.approx(fresh[0] * 1e-3)
+    assert first["thin_area_mm2"] == pytest.approx(fresh[1])
+
+
 @pytest.mark.slow
 def test_cable_corridors_leave_the_fork_plates_min_wall():
     """A run climbing from one idler stack to the next cuts into the fork plate it passes

@@ -104,7 +104,7 @@ def printing_report(link, min_wall: float, split=None) -> dict:
     and ``support_area_unsplit_mm2`` the one-piece link's.
     """
     down, support = link.print_orientation  # the one-piece link's (the split's unsplit_*)
-    wall, thin = wall_thickness(link.solid, min_wall * 1e3)
+    wall, thin = wall_thickness(link.solid, min_wall * 1e3, samples=link.walls)
     out = {
         "print_down_axis": _axis(down),
         "support_area_mm2": support if split is None else split.support,
@@ -181,10 +181,12 @@ def printed_summary(splits) -> str:
         f"printed parts (target: under {target:g} mm^2 of support each; links/*.json 'print'):",
     ]
     for s in splits:
-        counts: dict[str, int] = {}
-        for f in s.fasteners:
-            counts[f"{f.kind} {f.size}"] = counts.get(f"{f.kind} {f.size}", 0) + 1
-        held = "; " + ", ".join(f"{n} x {k}" for k, n in counts.items()) if counts else ""
+        groups = s.fastener_groups
+        held = (
+            "; " + ", ".join(f"{len(g)} x {k} {z}" for (k, z), g in groups.items())
+            if groups
+            else ""
+        )
         lines.append(
             f"  {s.link.name}  {s.scheme:<13}  {len(s.parts)} part(s), worst support "
             f"{s.support:6.1f} mm^2 (one piece: {s.unsplit_support:6.1f}){held}"

@@ -156,7 +156,7 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
                 note="aluminium in the paper",
             )
     for split in carving.printed:
-        for (kind, size), group in _fastener_groups(split).items():
+        for (kind, size), group in split.fastener_groups.items():
             add(
                 f"{kind} {split.link.name}",
                 "bought",
@@ -196,14 +196,6 @@ _FASTENER_NOTES = {
     "dowel pin": "ISO 8734; locates {link}'s fork on its beam",
     "screw": "through {link}'s fork bridge into its beam (cuts its own thread)",
 }
-
-
-def _fastener_groups(split) -> dict[tuple[str, str], list]:
-    """A link's fasteners by kind and size, in the order they come."""
-    groups: dict[tuple[str, str], list] = {}
-    for f in split.fasteners:
-        groups.setdefault((f.kind, f.size), []).append(f)
-    return groups
 
 
 def _bom_csv(rows: list[dict]) -> str:
@@ -374,7 +366,7 @@ def _join_text(split) -> str:
     """The assembly step that joins a split link's parts."""
     name = split.link.name
     files = ", ".join(f"parts/{p.file_name}" for p in split.parts)
-    groups = _fastener_groups(split)
+    groups = split.fastener_groups
     bought = "; ".join(f"{len(g)} x {_BOUGHT[kind]}{size}" for (kind, size), g in groups.items())
     if split.scheme == "slabs":
         how = (

@@ -56,6 +56,17 @@ class CarvedLink:
         return self.blank.index
 
     @functools.cached_property
+    def walls(self) -> tuple[np.ndarray, np.ndarray]:
+        """Surface points and the wall behind each (mm), cast once.
+
+        ``handarm.carve.properties.wall_samples`` of the solid at its default spacing: the
+        split and the link's JSON report both read it.
+        """
+        from handarm.carve.properties import wall_samples
+
+        return wall_samples(self.solid)
+
+    @functools.cached_property
     def print_orientation(self) -> tuple[np.ndarray, float]:
         """The one-piece link's print pose: direction put down, support area (mm^2).
 

@@ -77,8 +77,7 @@ def wall_samples(
     """
     mesh = to_trimesh(solid)
     rng = np.random.default_rng(seed)
-    count = int(mesh.area / spacing**2)
-    pts, faces = trimesh.sample.sample_surface(mesh, count, seed=rng)
+    pts, faces = trimesh.sample.sample_surface(mesh, _random_rays(mesh, spacing), seed=rng)
     centres = mesh.triangles_center
     pts = np.concatenate([pts, centres])
     faces = np.concatenate([faces, np.arange(len(mesh.faces))])
@@ -94,17 +93,23 @@ def wall_samples(
     return pts[rays[facing]], dist[facing]
 
 
+def _random_rays(mesh: trimesh.Trimesh, spacing: float) -> int:
+    """How many random surface points ``wall_samples`` casts (besides every face's centre)."""
+    return int(mesh.area / spacing**2)
+
+
 def wall_thickness(
-    solid: Manifold, limit: float, spacing: float = 0.5, seed: int = 0
+    solid: Manifold, limit: float, spacing: float = 0.5, seed: int = 0, samples=None
 ) -> tuple[float, float]:
     """Thinnest wall of a solid (mm) and the surface area (mm^2) where it is below ``limit``.
 
-    The walls are ``wall_samples``'s; each sample stands for an equal share of the surface
-    (its area over the number of points cast).
+    The walls are ``wall_samples``'s (``samples``: its result for this solid, spacing and
+    seed when already cast, e.g. ``CarvedLink.walls``); each sample stands for an equal share
+    of the surface (its area over the number of points cast).
     """
     mesh = to_trimesh(solid)
-    count = int(mesh.area / spacing**2) + len(mesh.faces)
-    _, dist = wall_samples(solid, spacing, seed)
+    count = _random_rays(mesh, spacing) + len(mesh.faces)
+    _, dist = wall_samples(solid, spacing, seed) if samples is None else samples
     if len(dist) == 0:
         return float("inf"), 0.0
     per_point = mesh.area / max(count, 1)

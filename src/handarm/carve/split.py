@@ -162,6 +162,17 @@ class LinkSplit:
     problems: tuple[str, ...]
 
     @property
+    def fastener_groups(self) -> dict[tuple[str, str], list[Fastener]]:
+        """The fasteners by (kind, size), in the order they come.
+
+        The summary, the bill of materials and the assembly guide all read them.
+        """
+        groups: dict[tuple[str, str], list[Fastener]] = {}
+        for f in self.fasteners:
+            groups.setdefault((f.kind, f.size), []).append(f)
+        return groups
+
+    @property
     def support(self) -> float:
         """The worst part's support area (mm^2)."""
         return max(p.support for p in self.parts)
@@ -569,7 +580,7 @@ def split_link(result: CarveResult, k: int, target: float = SUPPORT_TARGET) -> L
     if not target > 0:
         raise ValueError(f"target: expected a positive area (mm^2), got {target!r}")
     link = result.links[k]
-    _, walls = wall_samples(link.solid)
+    _, walls = link.walls
     ctx = _Context(
         result,
         k,
