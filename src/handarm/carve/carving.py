@@ -254,11 +254,20 @@ def _bounds_in(blank: LinkBlank, solid: Manifold, frame: str) -> np.ndarray:
 
 def _sweep_into_proximal(blanks, solids, j, lo, hi, step, grow) -> Manifold:
     """What the distal link of joint j sweeps, in the proximal link's frame."""
-    p, d = blanks[j - 1], blanks[j]
-    parts = [part_in_frame(d, part, "prox") for part in d.parts]
-    within = _bounds_in(p, solids[j - 1], "dist")
+    within = _bounds_in(blanks[j - 1], solids[j - 1], "dist")
+    return distal_sweep(blanks[j - 1], blanks[j], lo, hi, step, grow, within)
+
+
+def distal_sweep(prox: LinkBlank, dist: LinkBlank, lo, hi, step, grow, within) -> Manifold:
+    """What ``dist``'s parts sweep turning lo..hi about their joint, in ``prox``'s link frame.
+
+    ``within``: the box (2, 3), in the joint's frame, that the sweep will be cut from (see
+    ``sweep.sweep_parts``). Carving cuts it from the proximal link; the split keeps screw
+    heads out of it.
+    """
+    parts = [part_in_frame(dist, part, "prox") for part in dist.parts]
     swept = sweep_parts(parts, lo, hi, step, grow, within)
-    return swept.transform(_affine(frame_to_link(p, "dist")))
+    return swept.transform(_affine(frame_to_link(prox, "dist")))
 
 
 def _sweep_into_distal(blanks, solids, j, lo, hi, step, grow) -> Manifold:

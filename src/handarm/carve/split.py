@@ -40,10 +40,10 @@ from collections.abc import Sequence
 import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
 
-from handarm.carve.carving import CarvedLink, CarveResult, _corridors, _cylinder
+from handarm.carve.carving import CarvedLink, CarveResult, _corridors, _cylinder, distal_sweep
 from handarm.carve.printing import bed_faces, pose_on_bed, print_orientation, support_area
 from handarm.carve.properties import to_trimesh, wall_samples
-from handarm.carve.sweep import _affine, frame_to_link, part_in_frame, sweep_parts
+from handarm.carve.sweep import _affine, frame_to_link
 from handarm.links import M3_CLEAR, M3_HEAD, M3_PILOT, MM, Hole, _fork_sizes, joint_geometry
 
 __all__ = [
@@ -676,12 +676,9 @@ def _head_room(ctx: _Context, frame: np.ndarray, xf: float) -> np.ndarray:
     )
     local = (corners @ to_dist.T)[:, :3]
     lo, hi = ctx.result.as_built.joint_limits[ctx.k]
-    parts = [part_in_frame(nxt, part, "prox") for part in nxt.parts]
     step = math.radians(ctx.result.resolution)
-    swept = sweep_parts(
-        parts, lo, hi, step, design.clearance * MM, np.array([local.min(0), local.max(0)])
-    )
-    swept = swept.transform(_affine(frame_to_link(blank, "dist")))
+    within = np.array([local.min(0), local.max(0)])
+    swept = distal_sweep(blank, nxt, lo, hi, step, design.clearance * MM, within)
     clip = Manifold.cube((box[1] - box[0]).tolist()).translate(box[0].tolist())
     stuff = Manifold.batch_boolean([ctx.link.solid, swept, *_corridors(blank)], OpType.Add) ^ clip
     turned = stuff.transform(

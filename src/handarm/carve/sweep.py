@@ -88,10 +88,7 @@ def sweep_parts(parts, lo: float, hi: float, step: float, grow: float, within=No
     n = max(1, math.ceil((hi - lo) / step - 1e-9))
     angles = np.linspace(lo, hi, n + 1)
     sag_factor = 1.0 - math.cos((hi - lo) / n / 2.0)
-    clip = None
-    if within is not None:
-        box = np.asarray(within, dtype=float)
-        clip = CrossSection.square(box[1, :2] - box[0, :2] + 2.0).translate(box[0, :2] - 1.0)
+    box, clip = _clip_box(within)
     by_height: dict[tuple[float, float], list[CrossSection]] = {}
     for part in parts:
         z0, z1 = part.z0 - grow, part.z1 + grow
@@ -111,6 +108,19 @@ def sweep_parts(parts, lo: float, hi: float, step: float, grow: float, within=No
         if clip is not None:
             area = area ^ clip
         by_height.setdefault((z0, z1), []).append(area)
+    return _extruded(by_height)
+
+
+def _clip_box(within) -> tuple[np.ndarray | None, CrossSection | None]:
+    """The box (2, 3) a sweep will be cut from and its plan grown by 1 mm (or None, None)."""
+    if within is None:
+        return None, None
+    box = np.asarray(within, dtype=float)
+    return box, CrossSection.square(box[1, :2] - box[0, :2] + 2.0).translate(box[0, :2] - 1.0)
+
+
+def _extruded(by_height: dict[tuple[float, float], list[CrossSection]]) -> Manifold:
+    """The union of each (z0, z1) band's areas extruded from z0 to z1."""
     solids = []
     for (z0, z1), areas in by_height.items():
         area = CrossSection.batch_boolean(areas, OpType.Add)
@@ -319,20 +329,15 @@ def sweep_runs(runs, radius: float, lo: float, hi: float, grow: float, within=No
     Manifold
         A volume (mm) holding every place the runs' cylinders take, grown by ``grow``.
     """
-    clip = None
-    if within is not None:
-        box = np.asarray(within, dtype=float)
-        clip = CrossSection.square(box[1, :2] - box[0, :2] + 2.0).translate(box[0, :2] - 1.0)
+    box, clip = _clip_box(within)
     by_height: dict[tuple[float, float], list[CrossSection]] = {}
     for poly, z0, z1 in _run_pieces(runs, radius + grow):
         if clip is not None and (z1 < box[0, 2] - 1.0 or z0 > box[1, 2] + 1.0):
             continue
         by_height.setdefault((z0, z1), []).append(_polar_sweep(poly, lo, hi))
-    solids = []
-    for (z0, z1), areas in by_height.items():
-        area = CrossSection.batch_boolean(areas, OpType.Add)
-        if clip is not None:
-            area = area ^ clip
-        if not area.is_empty():
-            solids.append(area.extrude(z1 - z0).translate([0.0, 0.0, z0]))
-    return Manifold.batch_boolean(solids, OpType.Add) if solids else Manifold()
+    if clip is not None:
+        by_height = {
+            band: [CrossSection.batch_boolean(areas, OpType.Add) ^ clip]
+            for band, areas in by_height.items()
+        }
+    return _extruded(by_height)
