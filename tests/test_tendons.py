@@ -133,6 +133,24 @@ def test_a_cable_limit_lies_just_short_of_a_real_contact(carved):
         assert links & {(f"l{j - 1}", f"l{j}"), (f"l{j}", f"l{j - 1}")}, (j, poses[n])
 
 
+def test_a_search_that_starts_with_a_cable_pinched_stops_there_both_ways():
+    """From 100 degrees every joint's own cable already meets its neighbour (the traced
+    check agrees): the range is that one pose, stopped by the cable on both sides, never
+    reported as reaching its end."""
+    from handarm.tendons import cable_limits
+
+    design = handarm.ArmDesign()
+    carving = carve(design, 2.0)
+    start = math.radians(100.0)
+    found = cable_limits(design, carving.links, [(start, math.radians(120.0))] * 6)
+    for joint in found:
+        assert joint["limits"] == (start, start)
+        assert all(s and s.startswith("cable") for s in joint["stopped_by"]), joint
+    q = np.zeros(6)
+    q[1] = start
+    assert not tendon_report(design, carving, poses=[q])["clear"]
+
+
 def test_the_build_uses_the_ranges_the_cables_allow(carved):
     """``as_built`` (what the URDF, controller and map use) lies within the cable limits,
     and a joint narrowed by a cable says which."""

@@ -540,6 +540,8 @@ def cable_limits(design: ArmDesign, links, ranges) -> list[dict]:
     need: ``swept_overlap`` over the returned range finds no material (a test holds the two
     together). First contact is made on a surface, so no interior point can enter earlier,
     provided nothing meets at the start (the traced check of ``tendon_report`` tests q = 0).
+    Where a surface point already lies in a run at the start, both sides stop there and
+    name the cable.
 
     Parameters
     ----------
@@ -606,7 +608,8 @@ def cable_limits(design: ArmDesign, links, ranges) -> list[dict]:
             found = [(*by_dist[side], j, j - 1), (*by_prox[1 - side], j - 1, j)]
             angle, tag, run_on, meets = min(found, key=lambda f: f[0])
             limit = s + sign * angle
-            if sign * (limit - end) >= 0.0:
+            # a cable already meeting a link at the start stops both sides there
+            if angle > 0.0 and sign * (limit - end) >= 0.0:
                 limits.append(end)
                 stops.append(None)
             else:
