@@ -176,6 +176,29 @@ def _runs(design: ArmDesign) -> list[tuple[int, int, int, np.ndarray, np.ndarray
     return out
 
 
+def _joint_runs(design: ArmDesign, links, j: int):
+    """The free runs on l(j-1) and on l(j) in joint j's frame (l(j)'s own), mm.
+
+    Returns (on the proximal link, on the distal link), each a list of
+    (cable, side, start, end).
+    """
+    from handarm.carve.sweep import frame_to_link
+
+    to_joint = np.linalg.inv(frame_to_link(links[j - 1].blank, "dist"))
+    prox, dist = [], []
+    for k, cable, side, a, b in _runs(design):
+        if k == j - 1:
+            prox.append((cable, side, *((to_joint @ np.array([*pt, 1.0]))[:3] for pt in (a, b))))
+        elif k == j:
+            dist.append((cable, side, a, b))
+    return prox, dist
+
+
+def _pulley_reach(design: ArmDesign, j: int) -> float:
+    """Radius (mm) within which joint j's tongue counts as the pulley its cable wraps."""
+    return joint_geometry(design, j).tongue_radius + PULLEY_SLACK
+
+
 def tendon_report(
     design: ArmDesign, carving=None, *, samples: int = 12, seed: int = 0, poses=None
 ) -> dict:
@@ -363,7 +386,7 @@ def swept_overlap(design: ArmDesign, carving, ranges=None) -> list[dict]:
     from manifold3d import Manifold
 
     from handarm.carve.carving import _in_joint_frame
-    from handarm.carve.sweep import frame_to_link, sweep_runs
+    from handarm.carve.sweep import sweep_runs
 
     rc = corridor_radius(design)
 
@@ -377,25 +400,18 @@ def swept_overlap(design: ArmDesign, carving, ranges=None) -> list[dict]:
     for j in range(1, 7):
         p_link, d_link = carving.links[j - 1], carving.links[j]
         lo, hi = carving.joints[j - 1].carved if ranges is None else ranges[j - 1]
-        # l(j-1)'s runs in joint j's frame, which is l(j)'s own frame
-        to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
-        p_runs = [
-            tuple((to_joint @ np.array([*pt, 1.0]))[:3] for pt in run)
-            for run in cable_runs(design, j - 1)
-        ]
+        on_prox, on_dist = _joint_runs(design, carving.links, j)
         box = np.asarray(d_link.solid.bounding_box()).reshape(2, 3)
         pulley = Manifold.cylinder(
-            box[1, 2] - box[0, 2] + 2.0,
-            joint_geometry(design, j).tongue_radius + PULLEY_SLACK,
-            circular_segments=96,
+            box[1, 2] - box[0, 2] + 2.0, _pulley_reach(design, j), circular_segments=96
         ).translate([0.0, 0.0, box[0, 2] - 1.0])
         out.append(
             {
                 "joint": j,
                 "proximal_mm3": inside(
-                    _in_joint_frame(p_link, "dist"), cable_runs(design, j), lo, hi
+                    _in_joint_frame(p_link, "dist"), [r[2:] for r in on_dist], lo, hi
                 ),
-                "distal_mm3": inside(d_link.solid - pulley, p_runs, -hi, -lo),
+                "distal_mm3": inside(d_link.solid - pulley, [r[2:] for r in on_prox], -hi, -lo),
             }
         )
     return out
@@ -559,20 +575,16 @@ def cable_limits(design: ArmDesign, links, ranges) -> list[dict]:
         "cable k on lN meets lM" for the run met first.
     """
     from handarm.carve.carving import _in_joint_frame
-    from handarm.carve.sweep import _run_pieces, frame_to_link
+    from handarm.carve.sweep import _run_pieces
 
     rc = corridor_radius(design)
-    runs = _runs(design)
 
-    def pieces(link: int, to_joint: np.ndarray):
-        out = []
-        for k, cable, side, a, b in runs:
-            if k != link:
-                continue
-            ends = [(to_joint @ np.array([*pt, 1.0]))[:3] for pt in (a, b)]
-            for poly, z0, z1 in _run_pieces([ends], rc):
-                out.append((poly, z0, z1, (cable, side)))
-        return out
+    def pieces(runs):
+        return [
+            (poly, z0, z1, (cable, side))
+            for cable, side, a, b in runs
+            for poly, z0, z1 in _run_pieces([(a, b)], rc)
+        ]
 
     def points(solid, own):
         if not own:
@@ -589,16 +601,13 @@ def cable_limits(design: ArmDesign, links, ranges) -> list[dict]:
         p_link, d_link = links[j - 1], links[j]
         lo, hi = ranges[j - 1]
         s = min(max(0.0, lo), hi)
-        to_joint = np.linalg.inv(frame_to_link(p_link.blank, "dist"))
-        on_dist = pieces(j, np.eye(4))  # l(j)'s frame is joint j's
-        on_prox = pieces(j - 1, to_joint)
+        runs_prox, runs_dist = _joint_runs(design, links, j)
+        on_prox, on_dist = pieces(runs_prox), pieces(runs_dist)
         prox_pts = points(_in_joint_frame(p_link, "dist"), on_dist)
         # l(j) less its pulley (``swept_overlap``): inside that cylinder's radius nothing
         # counts, and beyond it the material's edge at each radius lies on l(j)'s surface
         pts, slack = points(d_link.solid, on_prox)
-        keep = (
-            np.hypot(pts[:, 0], pts[:, 1]) >= joint_geometry(design, j).tongue_radius + PULLEY_SLACK
-        )
+        keep = np.hypot(pts[:, 0], pts[:, 1]) >= _pulley_reach(design, j)
         dist_pts = (pts[keep], slack[keep])
         # l(j)'s runs turn by +q against l(j-1); l(j-1)'s by -q against l(j)
         by_dist = _first_contacts(*prox_pts, on_dist, s)
