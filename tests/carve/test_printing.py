@@ -152,3 +152,28 @@ def test_l3_fork_keeps_min_wall_below_the_slab_l2_sweeps(changes):
     assert fin.volume() > 1.0  # the plates do reach below the slab
     wall, thin = wall_thickness(fin, design.min_wall * 1e3)
     assert wall >= design.min_wall * 1e3 - 1e-6 and thin == 0.0, wall
+
+
+def test_a_step_under_a_micrometre_is_no_wall():
+    """A lip 0.1 mm wide and 0.2 um high on a block's edge (what a cut grown by a hair over
+    the clearance leaves where it grazes a face) is no 0.1 mm wall; a lip 0.1 mm high is."""
+    block = Manifold.cube([10.0, 10.0, 5.0])
+    hair = block + Manifold.cube([0.1, 10.0, 5.0002]).translate([9.9, 0.0, 0.0])
+    assert wall_thickness(hair, 1.2) == (pytest.approx(5.0, abs=1e-3), 0.0)
+    lip = block + Manifold.cube([0.1, 10.0, 5.1]).translate([9.9, 0.0, 0.0])
+    assert wall_thickness(lip, 1.2)[0] == pytest.approx(0.1, abs=1e-3)
+
+
+@pytest.mark.parametrize("lean", [-1e-4, 0.0, 1e-4])
+def test_a_face_at_45_degrees_needs_no_support_however_it_rounds(lean):
+    """A block turned so that two faces face down at 45 degrees (give or take 1e-4
+    degrees, as a mesh's rounding leaves them) needs no support; at 46 degrees one does."""
+    import trimesh
+
+    def tilted(deg):
+        box = trimesh.creation.box([10.0, 10.0, 10.0])
+        box.apply_transform(trimesh.transformations.rotation_matrix(math.radians(deg), [0, 1, 0]))
+        return box
+
+    assert support_area(tilted(45.0 + lean), [0.0, 0.0, -1.0]) == 0.0
+    assert support_area(tilted(46.0), [0.0, 0.0, -1.0]) == pytest.approx(100.0, rel=1e-6)

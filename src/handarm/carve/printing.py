@@ -29,6 +29,11 @@ __all__ = [
 #: A face overhangs when it faces down steeper than this from the vertical (degrees).
 OVERHANG_DEG = 45.0
 
+#: Degrees a face must lean past ``OVERHANG_DEG`` to count: a face cut at exactly 45
+#: degrees (where a neighbour's sweep ends at +-135) leans a few micro-degrees either way
+#: once its mesh is rounded, and prints the same either way.
+_OVERHANG_TOL_DEG = 0.01
+
 #: Least area (mm^2) a print pose must rest on.
 MIN_BED_CONTACT = 25.0
 
@@ -52,7 +57,10 @@ def support_area(mesh: trimesh.Trimesh, down) -> float:
     """
     down = np.asarray(down, float) / np.linalg.norm(down)
     cos = mesh.face_normals @ down
-    steep = (cos > math.cos(math.radians(OVERHANG_DEG)) + 1e-9) & ~bed_faces(mesh, down)
+    # the face's normal lies within 90 - OVERHANG_DEG - tol degrees of down
+    steep = (cos > math.sin(math.radians(OVERHANG_DEG + _OVERHANG_TOL_DEG))) & ~bed_faces(
+        mesh, down
+    )
     return float(mesh.area_faces[steep].sum())
 
 

@@ -73,9 +73,11 @@ def wall_samples(
     centre) each cast a ray inwards along the surface normal; the distance to where it
     leaves the solid is the wall there, kept when the exit face is within
     ``WALL_ANGLE_DEG`` of parallel to the start face: a plate, a rib or a knife edge sharper
-    than that, not the corner of a block (whose faces meet at 90 degrees).
+    than that, not the corner of a block (whose faces meet at 90 degrees). Features under
+    ``WALL_FEATURE`` (a step a cut leaves where it grazes a face) are merged first: they
+    are no wall.
     """
-    mesh = to_trimesh(solid)
+    mesh = _measured(solid)
     rng = np.random.default_rng(seed)
     pts, faces = trimesh.sample.sample_surface(mesh, _random_rays(mesh, spacing), seed=rng)
     centres = mesh.triangles_center
@@ -93,6 +95,17 @@ def wall_samples(
     return pts[rays[facing]], dist[facing]
 
 
+#: mm: steps smaller than this are merged before walls are measured. Carving grows its cuts
+#: by a hair (0.2 um) over the clearance, so a neighbour's face that lies exactly at the
+#: clearance leaves a step that high where its sweep ends; it prints as nothing.
+WALL_FEATURE = 1e-3
+
+
+def _measured(solid: Manifold) -> trimesh.Trimesh:
+    """The mesh walls are measured on: the solid with features under ``WALL_FEATURE`` merged."""
+    return to_trimesh(solid.simplify(WALL_FEATURE))
+
+
 def _random_rays(mesh: trimesh.Trimesh, spacing: float) -> int:
     """How many random surface points ``wall_samples`` casts (besides every face's centre)."""
     return int(mesh.area / spacing**2)
@@ -107,7 +120,7 @@ def wall_thickness(
     seed when already cast, e.g. ``CarvedLink.walls``); each sample stands for an equal share
     of the surface (its area over the number of points cast).
     """
-    mesh = to_trimesh(solid)
+    mesh = _measured(solid)
     count = _random_rays(mesh, spacing) + len(mesh.faces)
     _, dist = wall_samples(solid, spacing, seed) if samples is None else samples
     if len(dist) == 0:
