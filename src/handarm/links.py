@@ -277,50 +277,147 @@ def _fork(
 _WALL_MARGIN = 0.1
 
 
-def _plate_extra(
+def _plate_cuts(
     design: ArmDesign, k: int, g: JointGeometry, length: float, to_dist: np.ndarray | None
-) -> tuple[float, float]:
-    """How much (mm) link k's fork plates at its distal joint grow outwards for ``min_wall``.
+) -> np.ndarray:
+    """Where link k's corridors pass its distal fork's plates, and how deep they cut: (n, 4).
 
-    Cable runs climb from one joint's idler stack to the next one's, so a corridor (the run
-    grown by the cable radius plus the clearance) can cut into a fork plate from the gap
-    side, where the plate overlaps the run's stretch of x. The plate keeps ``min_wall`` (plus
-    a margin) beyond the deepest cut by growing away from the gap, but the + plate (the idler
-    side) no further than the proximal joint's gap allows less the clearance: beyond that the
-    proximal neighbour would lose a sliver to its sweep. Exact for straight runs: z along a run
-    is linear in x, so the deepest cut over the plate's stretch is at an end of it.
+    Rows are points on the corridors' axes over the plates' stretch of x (-length .. 0, in
+    the distal joint's frame, mm): x, y, and how much the + plate and the - plate must grow
+    outwards there to keep ``min_wall`` (plus a margin) beyond the corridor (<= 0: none).
+    Cable runs climb from one joint's idler stack to the next one's, so a corridor (the hull
+    of the runs and their copies pushed outwards, grown by the cable radius plus the
+    clearance; ``_corridors``) can cut into a plate from the gap side. Along an axis the need
+    is linear in x, so its largest value over the stretch is at one of the ends sampled.
     """
     radius = corridor_radius(design)
     cheek = g.cheek
     wall = design.min_wall * MM + _WALL_MARGIN
     inv = np.eye(4) if to_dist is None else np.linalg.inv(to_dist)
-    need_hi, need_lo = 0.0, 0.0
-    for st in strands_in_link(design, k):
-        a = (inv @ np.array([*st.start, 1.0]))[:3]
-        b = (inv @ np.array([*st.end, 1.0]))[:3]
+    rows = []
+    # what cuts is the corridor: every axis it is the hull of (the runs and their copies
+    # pushed outwards, which on l3's twist reach further along joint 4 than the runs do)
+    for start, end in (run for ch in _corridors(design, k) for run in ch.runs):
+        a = (inv @ np.array([*start, 1.0]))[:3]
+        b = (inv @ np.array([*end, 1.0]))[:3]
         d = b - a
-        # the part of the run over the plate's stretch of x, -length .. 0
+        # the part of the axis over the plate's stretch of x, -length .. 0
         if abs(d[0]) < 1e-12:
             if not -length <= a[0] <= 0.0:
                 continue
-            ts = [0.0, 1.0]
+            t0, t1 = 0.0, 1.0
         else:
             t0, t1 = sorted(((-length - a[0]) / d[0], (0.0 - a[0]) / d[0]))
             t0, t1 = max(t0, 0.0), min(t1, 1.0)
             if t0 > t1:
                 continue
-            ts = [t0, t1]
-        for t in ts:
+        for t in np.linspace(t0, t1, 17):
             x, y, z = a + t * d
             if abs(y) > g.hub_radius + radius:
                 continue  # beside the plate
-            need_hi = max(need_hi, z + radius + wall - (g.gap_hi + cheek))
-            need_lo = max(need_lo, (g.gap_lo - cheek) - (z - radius - wall))
+            rows.append(
+                (
+                    x,
+                    y,
+                    z + radius + wall - (g.gap_hi + cheek),
+                    (g.gap_lo - cheek) - (z - radius - wall),
+                )
+            )
+    return np.array(rows, dtype=float).reshape(-1, 4)
+
+
+def _plate_extra(
+    design: ArmDesign, k: int, g: JointGeometry, length: float, to_dist: np.ndarray | None
+) -> tuple[float, float]:
+    """How much (mm) link k's fork plates at its distal joint grow outwards for ``min_wall``.
+
+    The deepest cut of ``_plate_cuts``, each plate; the + plate (the idler side) no further
+    than the proximal joint's gap allows less the clearance: beyond that the proximal
+    neighbour would lose a sliver to its sweep.
+    """
+    cuts = _plate_cuts(design, k, g, length, to_dist)
+    need_hi = max(float(cuts[:, 2].max()), 0.0) if len(cuts) else 0.0
+    need_lo = max(float(cuts[:, 3].max()), 0.0) if len(cuts) else 0.0
     if 1 <= k <= 5 and k != 3:  # the two joints' axles are parallel: one z along both
         # 0.01 mm short of touching: carving grows and shifts its cuts by about 1e-4 mm
-        room = joint_geometry(design, k).gap_hi - g.clearance - 0.01 - (g.gap_hi + cheek)
+        room = joint_geometry(design, k).gap_hi - g.clearance - 0.01 - (g.gap_hi + g.cheek)
         need_hi = min(need_hi, max(room, 0.0))
     return need_hi, need_lo
+
+
+#: mm: a floor under ``min_wall`` plus this is opened into a slot (the walls are measured on
+#: the written mesh, by rays cast from sampled points).
+_SLOT_MARGIN = 0.02
+
+
+def _plate_slots(design: ArmDesign, k: int) -> tuple[Channel, ...]:
+    """Slots through link k's + fork plate where its corridors would leave it too thin.
+
+    Only where the + plate's growth is capped (``_plate_extra``: joints k and k + 1
+    parallel): over the stretch of a run whose corridor comes within ``min_wall`` of the
+    capped plate's face, the run and its copy pushed sideways (the corridor's own two axes)
+    and both pushed up past the face, hulled: the corridor opens through the plate there.
+    """
+    if not 1 <= k <= 5 or k == 3:
+        return ()
+    g = joint_geometry(design, k + 1)
+    length, _ = _fork_sizes(design, g, design.link_lengths[k] * MM)
+    dist = _dist_transform(design, k)
+    radius = corridor_radius(design)
+    cut = radius / math.cos(math.pi / 24)  # the corridor is cut as a 24-gon round its circle
+    top = g.gap_hi + g.cheek + _plate_extra(design, k, g, length, dist)[0]
+    x0 = dist[0, 3] - length  # where the plate starts, link frame
+    slots = []
+    runs = [run for ch in _corridors(design, k) for run in ch.runs]
+    for (a, b), (ca, cb) in zip(runs[0::2], runs[1::2], strict=True):  # run, copy
+        a, b, ca, cb = (np.array(v, dtype=float) for v in (a, b, ca, cb))
+        d = b - a
+        if d[0] <= 1e-12 or b[0] < x0:
+            continue
+        ts = np.linspace(max((x0 - a[0]) / d[0], 0.0), 1.0, 65)
+        # the floor left over the run, top - (z + radius as cut), is under min_wall
+        thin = ts[a[2] + ts * d[2] > top - cut - design.min_wall * MM - _SLOT_MARGIN]
+        if not len(thin):
+            continue
+        t0, t1 = float(thin.min()), max(float(thin.max()), float(thin.min()) + 0.01)
+        up = np.array([0.0, 0.0, top - min(a[2] + t0 * d[2], a[2] + t1 * d[2]) + radius + 1.0])
+        axes = []
+        for p, q in ((a, b), (ca, cb)):
+            s, e = p + t0 * (q - p), p + t1 * (q - p)
+            axes += [(tuple(s), tuple(e)), (tuple(s + up), tuple(e + up))]
+        slots.append(
+            Channel(f"cable slot {len(slots) + 1} through l{k}'s + plate", tuple(axes), radius, 4)
+        )
+    return tuple(slots)
+
+
+def _twist_ribs(design: ArmDesign, g: JointGeometry, length: float, below: float) -> list[Part]:
+    """Ribs on the outer faces of l3's plates at joint 4, where its twisted corridor cuts in.
+
+    l3's corridor turns from joint 3's plane into joint 4's and crosses the plates of joint
+    4's fork near its bridge, at a slant: grown whole, a plate would add material that
+    l2's fork sweeps through about joint 3. Each plate grows only over the patch of its
+    face the corridor comes within ``min_wall`` of (``_plate_cuts``), from the fork's back
+    end (which lies on the bed as l3's fork prints) to past the corridor.
+    """
+    cuts = _plate_cuts(design, 3, g, length, _dist_transform(design, 3))
+    radius = corridor_radius(design)
+    margin = radius + design.min_wall * MM + _WALL_MARGIN
+    lo, hi = g.gap_lo - g.cheek, g.gap_hi + g.cheek
+    ribs = []
+    for col, name, z0 in ((2, "+", hi), (3, "-", lo)):
+        need = cuts[cuts[:, col] > 0.0] if len(cuts) else cuts
+        if not len(need):
+            continue
+        grow = float(need[:, col].max())
+        x1 = min(float(need[:, 0].max()) + margin, 0.0)
+        y0 = max(float(need[:, 1].min()) - margin, -g.hub_radius - below)
+        y1 = min(float(need[:, 1].max()) + margin, g.hub_radius)
+        z = (z0, z0 + grow) if name == "+" else (z0 - grow, z0)
+        ribs.append(
+            Part(f"fork plate {name} rib at joint 4", "dist", _box(-length, x1, y0, y1), *z)
+        )
+    return ribs
 
 
 #: Forks are sized so that the paper's largest limit (150 degrees) carves cleanly; a larger
@@ -501,6 +598,13 @@ def _dist_transform(design: ArmDesign, k: int) -> np.ndarray | None:
     return dist
 
 
+#: Longest stretch (mm) of l3 over which its cables twist from joint 3's plane into joint
+#: 4's: the paper's arm's (a 50 mm l3 less both lead-outs). The - side's cables cross l3's
+#: beam on the way; over a longer twist they cross its faces at under 30 degrees and the
+#: corridor leaves knife edges (0.02 to 0.09 mm, measured on a 55 and a 60 mm l3).
+TWIST_LENGTH = 27.0
+
+
 def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
     """The straight cable runs along link k (0..5), in its frame (mm); none on l6.
 
@@ -534,11 +638,12 @@ def strands_in_link(design: ArmDesign, k: int) -> list[Strand]:
                 out.append(Strand(k, cable, side, start, end))
                 continue
             # the turn: leave joint 3 and meet joint 4 in their planes (no fleet angle at the
-            # pulleys), twist in between through l3's channel
-            lead_out = g_prox.tongue_radius + 2.0
+            # pulleys), twist in between through l3's channel, over at most TWIST_LENGTH
+            # before joint 4's lead-in (a longer l3 runs its cables straight first)
             lead_in = g_dist.tongue_radius + 2.0
-            p1 = (start[0] + lead_out, start[1], start[2])
             p2 = (end[0] - lead_in, end[1], end[2])
+            lead_out = max(g_prox.tongue_radius + 2.0, p2[0] - start[0] - TWIST_LENGTH)
+            p1 = (start[0] + lead_out, start[1], start[2])
             for n, (a, b) in enumerate(((start, p1), (p1, p2), (p2, end))):
                 out.append(Strand(k, cable, side, a, b, segment=n))
     return out
@@ -581,7 +686,7 @@ def _twist_fin(design: ArmDesign) -> float:
     return wall - fin if 0.0 < fin < wall else 0.0
 
 
-def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
+def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
     radius = corridor_radius(design)
     dist = _dist_transform(design, k)
@@ -597,20 +702,28 @@ def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
             a, b = np.array(st.start), np.array(st.end)
             runs.append((tuple(a), tuple(b)))
             # the same run pushed out beyond the hubs: the corridor opens sideways (on l3,
-            # in the plane of the joint the segment's end is aligned with)
+            # in the plane of the joint the segment's end is aligned with: l3's twist opens
+            # towards joint 3's plane where it starts and joint 4's where it ends)
             push = 2.0 * radius
             out_a = out_end if (k == 3 and st.segment == 2) else y
             out_b = y if (k == 3 and st.segment == 0) else out_end
             runs.append((tuple(a + side * push * out_a), tuple(b + side * push * out_b)))
-            if k == 3 and st.segment == 1:
-                # the twist: open the corridor towards both planes (no skin over the fork)
-                runs.append((tuple(a + side * push * y), tuple(b + side * push * y)))
         if runs:
             label = "+" if side > 0 else "-"
             name = f"cable corridor {label} in l{k}" + (f", part {segment + 1}" if k == 3 else "")
-            per = 3 if (k == 3 and segment == 1) else 2
-            out.append(Channel(name, tuple(runs), radius, per))
+            out.append(Channel(name, tuple(runs), radius, 2))
     return tuple(out)
+
+
+def _channels(design: ArmDesign, k: int) -> tuple[Channel, ...]:
+    """Link k's cable corridors, and the slots that open them through a fork plate.
+
+    Where a run climbs into its + plate's reach and the plate may not grow enough
+    (``_plate_extra``), the corridor would leave a floor under ``min_wall``: over that
+    stretch it opens through the plate instead (a slot, the run and a copy pushed out past
+    the plate's face).
+    """
+    return _corridors(design, k) + _plate_slots(design, k)
 
 
 def link_blank(design: ArmDesign, k: int) -> LinkBlank:
@@ -663,8 +776,12 @@ def link_blank(design: ArmDesign, k: int) -> LinkBlank:
     length, clear = _fork_sizes(design, g_dist, a)
     dist = _dist_transform(design, k)
     parts.append(Part("beam", "prox", _box(0.0, a - clear, -bw, bw), -t, t))
-    extra = _plate_extra(design, k, g_dist, length, dist)
     below = _twist_fin(design) if k == 3 else 0.0
-    parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra, below=below)
+    if k == 3:
+        parts += _fork(g_dist, "dist", length=length, clear=clear, extra=(0.0, 0.0), below=below)
+        parts += _twist_ribs(design, g_dist, length, below)
+    else:
+        extra = _plate_extra(design, k, g_dist, length, dist)
+        parts += _fork(g_dist, "dist", length=length, clear=clear, extra=extra)
     holes.append(_axle(g_dist, "dist"))
     return LinkBlank(k, tuple(parts), tuple(holes), a, dist, _channels(design, k), grooves)
