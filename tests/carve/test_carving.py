@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 from manifold3d import CrossSection, Manifold, OpType
+from scipy.spatial import KDTree
 
 import handarm
 from handarm.cad_out.meshes import support_area
@@ -216,3 +217,75 @@ def test_fork_cheeks_grow_with_their_plates():
             cheek = parts[f"fork cheek {sign} at joint {k + 1}"]
             plate = parts[f"fork plate {sign} at joint {k + 1}"]
             assert (cheek.z0, cheek.z1) == (plate.z0, plate.z1)
+
+
+def test_a_range_that_would_leave_a_thin_wall_is_narrowed(monkeypatch):
+    """With link lengths 60/70/45/55/50/40/50 mm, l2's fork cuts l1 to a 0.09 mm skin over
+    joint 2's full range and l5's cuts l4 to 0.2 mm over joint 5's: carving narrows those
+    ranges until every wall a sweep leaves keeps min_wall, and the joint reports say so.
+    Checked against a carving that ignores walls (as carving did before), on the meshes."""
+    from handarm.carve import carving
+    from handarm.carve.properties import wall_thickness
+
+    design = handarm.ArmDesign(link_lengths=(0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05))
+    w = design.min_wall * 1e3
+    result = carve(design)
+    with monkeypatch.context() as m:
+        m.setattr(carving, "_thinnest", lambda solid: math.inf)
+        blind = carve(design)
+    thin = {
+        link.name
+        for link in blind.links
+        if wall_thickness(link.solid, w)[0] < w - 0.05
+        and wall_thickness(link_blank_solid(design, link.index), w)[0] >= w
+    }
+    assert {"l1", "l4"} <= thin
+    assert {r.joint for r in result.joints if r.carved != r.requested} >= {2, 5}
+    for link in result.links:
+        if link.name in thin:
+            assert wall_thickness(link.solid, w)[0] >= w - 0.02, link.name
+    for r, b in zip(result.joints, blind.joints, strict=True):
+        assert b.carved[0] <= r.carved[0] < r.carved[1] <= b.carved[1]
+
+
+def link_blank_solid(design, k):
+    """The uncarved link k with its holes and corridors (what carving starts from)."""
+    from handarm.carve.carving import _blank_solid
+
+    return _blank_solid(link_blank(design, k))
+
+
+def test_a_fork_ending_its_range_pinches_no_link():
+    """At joint 3 limited to +-132.89 degrees the ends of l2's fork plate and bridge, turned
+    together, once met l3 along a line: two sheets of surface at one place, written as an
+    STL with edges of four faces. No carved link has two vertices at one place, and every
+    link's float32 STL is closed."""
+    design = handarm.ArmDesign().with_limits_deg([135, 150, 132.89, 125, 150, 150])
+    for link in carve(design).links:
+        verts = np.asarray(link.solid.to_mesh().vert_properties)[:, :3]
+        assert len(KDTree(verts).query_pairs(2e-5)) == 0, link.name
+        mesh = to_trimesh(link.solid)
+        stl = trimesh.load(trimesh.util.wrap_as_stream(mesh.export(file_type="stl")), "stl")
+        assert stl.is_watertight, link.name
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"link_lengths": (0.045, 0.055, 0.05, 0.06, 0.045, 0.05, 0.055)},
+        {"link_lengths": (0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05)},
+        {"link_lengths": (0.04, 0.07, 0.06, 0.05, 0.045, 0.055, 0.04)},
+        {"beam_width": 0.014},
+    ],
+)
+def test_every_carved_link_keeps_min_wall(changes):
+    """On designs other than the paper's the carved links keep min_wall, measured on the
+    meshes: the corridors, the plates and the narrowed ranges together."""
+    from handarm.carve.properties import wall_thickness
+
+    design = handarm.ArmDesign().replace(**changes)
+    w = design.min_wall * 1e3
+    result = carve(design)
+    for link in result.links:
+        wall, _ = wall_thickness(link.solid, w)
+        assert wall >= w - 0.02, (link.name, wall)

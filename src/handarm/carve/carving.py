@@ -3,8 +3,10 @@
 At joint j the distal link turns by q in [lo, hi] relative to the proximal one. The
 proximal link loses the volume the distal link sweeps over [lo, hi]; the distal link loses
 what the proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are
-grown by the print clearance. Each side, the links meet at the largest angle before their
-carved solids touch (manifold3d intersection volume, bisection to 0.05 degrees); the
+grown by the print clearance. A range whose sweeps would leave either link in pieces, without
+its bore wall, or with a wall thinner than ``min_wall`` is narrowed until they do not. Each
+side, the links meet at the largest angle before their carved solids touch (manifold3d
+intersection volume, bisection to 0.05 degrees); the
 *achieved* limit is that angle, or less where a cable run would meet one of the two links
 first (``handarm.tendons.cable_limits``): the range over which the printed joint turns with
 its cables clear.
@@ -384,27 +386,42 @@ def carve(
 def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, design):
     """Carve joint j's range if both links survive it, else the largest scaled range that does.
 
-    The proximal link is judged with ``prev_cut`` (what joint j-1 already took from it) as
-    well, so a link is healthy under its combined cuts. Raises ValueError naming the joint,
-    the link and the design field when not even the joint held still leaves healthy links.
+    A link survives when it stays healthy (``_healthy``) and keeps no wall thinner than
+    ``min_wall`` (or than its blank's own thinnest wall, if thinner): a range whose sweep
+    would leave a skin is not achievable. The proximal link is judged with ``prev_cut``
+    (what joint j-1 already took from it) as well, so a link survives its combined cuts.
+    Raises ValueError naming the joint, the link and the design field when not even the
+    joint held still leaves healthy links.
     """
     prox = solids[j - 1] if prev_cut is None else solids[j - 1] - prev_cut
     carved = (lambda sp: prox - sp, lambda sd: solids[j] - sd)
+    walls = (_wall_floor(design, solids[j - 1]), _wall_floor(design, solids[j]))
 
     def cuts(f):
         sp = _sweep_into_proximal(blanks, solids, j, lo * f, hi * f, step, grow)
         sd = _sweep_into_distal(blanks, solids, j, lo * f, hi * f, step, grow)
         return sp, sd
 
-    def ok(sp, sd):
+    def healthy(sp, sd):
         return _healthy(blanks[j - 1], carved[0](sp)) and _healthy(blanks[j], carved[1](sd))
 
+    def printable(sp, sd):
+        return healthy(sp, sd) and all(
+            _thinnest(c(cut)) >= w for c, cut, w in zip(carved, (sp, sd), walls, strict=True)
+        )
+
     sp, sd = cuts(1.0)
-    if ok(sp, sd):
+    if printable(sp, sd):
         return lo, hi, sp, sd
     good, bad = 0.0, 1.0
     best = cuts(0.0)
-    if not ok(*best):
+    # a wall the neighbour leaves thin even with the joint held still is the blank's shape,
+    # not the range's: the range is then judged on health alone, and the link's report
+    # says where its walls are thin
+    ok = printable if printable(*best) else healthy
+    if ok is healthy and healthy(sp, sd):
+        return lo, hi, sp, sd
+    if not healthy(*best):
         k = 0 if not _healthy(blanks[j - 1], carved[0](best[0])) else 1
         blank, solid = blanks[j - 1 + k], carved[k](best[k])
         split = solid.is_empty() or len(solid.decompose()) != 1
@@ -421,6 +438,23 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, desi
         else:
             bad = mid
     return lo * good, hi * good, best[0], best[1]
+
+
+#: Thinner walls than the blank's own, or than ``min_wall``, by more than this (mm) are a cut's.
+_WALL_TOL = 0.01
+
+
+def _thinnest(solid: Manifold) -> float:
+    """Thinnest wall of a solid (mm): ``properties.wall_samples``, as the link reports use."""
+    from handarm.carve.properties import wall_samples
+
+    _, dist = wall_samples(solid)
+    return float(dist.min()) if len(dist) else math.inf
+
+
+def _wall_floor(design: ArmDesign, blank: Manifold) -> float:
+    """The thinnest wall (mm) carving may leave in a link: ``min_wall``, or the blank's own."""
+    return min(design.min_wall * MM, _thinnest(blank)) - _WALL_TOL
 
 
 def _culprit(design: ArmDesign, split: bool) -> str:

@@ -125,8 +125,17 @@ def _extruded(by_height: dict[tuple[float, float], list[CrossSection]]) -> Manif
     for (z0, z1), areas in by_height.items():
         area = CrossSection.batch_boolean(areas, OpType.Add)
         if not area.is_empty():
+            # each band grown a hair more than the one before: two bands whose outlines
+            # share a corner (a fork's plate and bridge at the end of a range) then do not
+            # touch there, where the cut would pinch the link it is taken from
+            area = area.offset(_BAND_GROW * len(solids), JoinType.Miter)
             solids.append(area.extrude(z1 - z0).translate([0.0, 0.0, z0]))
     return Manifold.batch_boolean(solids, OpType.Add) if solids else Manifold()
+
+
+#: mm: how much more each band of a sweep is grown than the one before (see ``_extruded``);
+#: a few micrometres in all, against a clearance of tenths of a millimetre.
+_BAND_GROW = 5e-4
 
 
 #: Largest rise (mm) along the axle of one piece of a cable run: each piece is swept as a
