@@ -258,13 +258,6 @@ def _limits_summary(design: ArmDesign, carving) -> str:
         why = [
             s for s, narrowed in zip(report.stopped_by, (lo > a, hi < b), strict=True) if narrowed
         ]
-        c_lo, c_hi = report.carved
-        if (c_lo > a or c_hi < b) and any(" meets " in s and "cable" not in s for s in why):
-            # the links meet where carving stopped: a wider sweep would have spoilt a link
-            why.append(
-                f"carved to {math.degrees(c_lo):.1f} .. {math.degrees(c_hi):.1f} only "
-                "(wider, a link breaks or keeps a wall under min_wall)"
-            )
         note = f"  narrowed: {'; '.join(dict.fromkeys(why))}" if why else ""
         lines.append(f"  joint {k + 1}: {math.degrees(lo):8.2f} .. {math.degrees(hi):7.2f}{note}")
     return "\n".join(lines) + "\n"

@@ -289,3 +289,20 @@ def test_every_carved_link_keeps_min_wall(changes):
     for link in result.links:
         wall, _ = wall_thickness(link.solid, w)
         assert wall >= w - 0.02, (link.name, wall)
+
+
+def test_a_joint_stops_where_carving_narrowed_it():
+    """With min_wall 1.6 mm, carving joint 1 wider than +-53.7 degrees thins a wall: the
+    links would still not meet until +-132 degrees, but past the carved range they pass
+    closer than the print clearance, so the joint stops there and says why."""
+    design = handarm.ArmDesign().replace(min_wall=0.0016)
+    result = carve(design)
+    narrowed = [r for r in result.joints if r.carved != r.requested]
+    assert narrowed
+    for r in narrowed:
+        assert r.carved[0] <= r.achieved[0] < r.achieved[1] <= r.carved[1]
+    first = result.joints[0]
+    assert first.carved[1] < math.radians(90) < first.links_meet[1]
+    assert first.achieved == first.carved
+    assert all(s.startswith("carving") for s in first.stopped_by)
+    assert result.as_built.joint_limits[0] == first.carved

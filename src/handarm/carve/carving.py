@@ -6,10 +6,10 @@ what the proximal one sweeps, seen from the distal link, over [-hi, -lo]; both s
 grown by the print clearance. A range whose sweeps would leave either link in pieces, without
 its bore wall, or with a wall thinner than ``min_wall`` is narrowed until they do not. Each
 side, the links meet at the largest angle before their carved solids touch (manifold3d
-intersection volume, bisection to 0.05 degrees); the
-*achieved* limit is that angle, or less where a cable run would meet one of the two links
-first (``handarm.tendons.cable_limits``): the range over which the printed joint turns with
-its cables clear.
+intersection volume, bisection to 0.05 degrees); the *achieved* limit is that angle (or the
+carved limit, where carving narrowed the request), or less where a cable run would meet one
+of the two links first (``handarm.tendons.cable_limits``): the range over which the printed
+joint turns with its cables clear.
 """
 
 from __future__ import annotations
@@ -85,9 +85,11 @@ class JointReport:
     """Requested, carved and achieved limits of one joint (rad) and what stops it.
 
     ``links_meet``: each way, the angle before the two carved links meet. ``achieved``:
-    what the printed joint allows, that range narrowed to where both links' cable runs
-    keep clear of both links (``handarm.tendons.cable_limits``). ``stopped_by`` names what
-    ends ``achieved`` each way: the link features that meet, or the cable.
+    what the printed joint allows: that range, or the carved one on a side where carving
+    narrowed the request (past it the links pass closer than the print clearance),
+    narrowed to where both links' cable runs keep clear of both links
+    (``handarm.tendons.cable_limits``). ``stopped_by`` names what ends ``achieved`` each
+    way: the link features that meet, carving, or the cable.
     """
 
     joint: int
@@ -365,10 +367,23 @@ def carve(
     # the cables may stop a joint before its links meet (tendons reads carving: import here)
     from handarm.tendons import cable_limits
 
-    cables = cable_limits(design, links, [m[0] for m in meet])
+    # where carving narrowed a request, the joint stops where carving did: past it the links
+    # pass closer than the print clearance (they were not carved for it)
+    ranges, why = [], []
+    for (angles, stops), carved, asked in zip(meet, carve_limits, design.joint_limits, strict=True):
+        lo = carved[0] if carved[0] > asked[0] else angles[0]
+        hi = carved[1] if carved[1] < asked[1] else angles[1]
+        ranges.append((lo, hi))
+        why.append(
+            tuple(
+                _CARVING_STOP if narrowed else stop
+                for stop, narrowed in zip(stops, (lo != angles[0], hi != angles[1]), strict=True)
+            )
+        )
+    cables = cable_limits(design, links, ranges)
     tick("cable limits")
     joints = []
-    for j, ((angles, stops), clear) in enumerate(zip(meet, cables, strict=True), start=1):
+    for j, ((angles, _), stops, clear) in enumerate(zip(meet, why, cables, strict=True), start=1):
         stops = tuple(c or s for c, s in zip(clear["stopped_by"], stops, strict=True))
         joints.append(
             JointReport(
@@ -439,6 +454,9 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, desi
             bad = mid
     return lo * good, hi * good, best[0], best[1]
 
+
+#: What ends a joint's range where carving narrowed the request (``_largest_healthy_range``).
+_CARVING_STOP = "carving (a wider range breaks a link or leaves a wall under min_wall)"
 
 #: Thinner walls than the blank's own, or than ``min_wall``, by more than this (mm) are a cut's.
 _WALL_TOL = 0.01
