@@ -686,6 +686,10 @@ def _twist_fin(design: ArmDesign) -> float:
     return wall - fin if 0.0 < fin < wall else 0.0
 
 
+#: mm: how far l3's lead-out corridor runs on past where the twist begins.
+_TWIST_OVERLAP = 2.0
+
+
 def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
     radius = corridor_radius(design)
@@ -700,6 +704,10 @@ def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
             if st.side != side or st.segment != segment:
                 continue
             a, b = np.array(st.start), np.array(st.end)
+            if k == 3 and st.segment == 0:
+                # the lead-out runs on into the twist's corridor: the two hulls overlap by
+                # _TWIST_OVERLAP instead of meeting in a seam that can hold a sheet of a link
+                b = b + _TWIST_OVERLAP * (b - a) / np.linalg.norm(b - a)
             runs.append((tuple(a), tuple(b)))
             # the same run pushed out beyond the hubs: the corridor opens sideways (on l3,
             # in the plane of the joint the segment's end is aligned with: l3's twist opens

@@ -276,6 +276,7 @@ def test_a_fork_ending_its_range_pinches_no_link():
         {"link_lengths": (0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05)},
         {"link_lengths": (0.04, 0.07, 0.06, 0.05, 0.045, 0.055, 0.04)},
         {"beam_width": 0.014},
+        {"link_lengths": (0.08,) * 7},  # l3's twist starts 41.5 mm out, over the beam
     ],
 )
 def test_every_carved_link_keeps_min_wall(changes):
