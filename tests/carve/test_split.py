@@ -242,3 +242,19 @@ def test_a_target_no_scheme_meets_is_reported_not_raised(carved_default):
     s = split_link(carved_default, 5, target=5.0)
     assert s.scheme == "beam and fork" and s.support > 5.0
     assert any("l5 fork" in p and "to support" in p for p in s.problems)
+
+
+def test_a_bridge_too_long_for_any_screw_is_a_problem_not_a_crash():
+    """With 75 mm links, 6 mm hubs and an 8 mm beam, l3's fork bridge is 18 mm long where
+    the beam-and-fork cut meets it: no M3 screw in stock (up to 20 mm) bites 6 mm into the
+    beam through it. The split says so and the other links still split."""
+    import handarm
+    from handarm.carve import carve
+
+    design = handarm.ArmDesign().replace(
+        link_lengths=(0.075,) * 7, hub_radius=0.006, beam_width=0.008, cable_diameter=0.0008
+    )
+    splits = carve(design).printed
+    assert len(splits) == 7
+    assert any("no M3 screw" in p for s in splits for p in s.problems)
+    assert all(len(s.parts) >= 1 for s in splits)

@@ -713,8 +713,14 @@ def _screw_and_dowels(
     if tip2 is not None:
         tip2 /= np.linalg.norm(tip2)
     # the cut's EPS is no length to buy
-    screw_len = next(v for v in SCREW_LENGTHS if v >= bridge + SCREW_BITE - 0.01)
-    dowel_len = next(v for v in DOWEL_LENGTHS if v >= bridge + DOWEL_BITE - 0.01)
+    screw_len = next((v for v in SCREW_LENGTHS if v >= bridge + SCREW_BITE - 0.01), None)
+    dowel_len = next((v for v in DOWEL_LENGTHS if v >= bridge + DOWEL_BITE - 0.01), None)
+    if screw_len is None or dowel_len is None:
+        return [], [
+            f"{ctx.link.name}: the fork's bridge is {bridge:.1f} mm long at the cut; no M3 "
+            f"screw up to {SCREW_LENGTHS[-1]} mm or dowel up to {DOWEL_LENGTHS[-1]} mm "
+            "reaches through it into the beam"
+        ]
     pilot_depth = screw_len - bridge + 1.0
     dowel_depth = dowel_len - bridge + 0.5
     solid = ctx.link.solid
