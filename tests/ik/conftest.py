@@ -7,12 +7,20 @@ import handarm
 
 
 def random_design(rng):
-    """Unequal lengths and asymmetric limits up to +-180 degrees."""
-    lim = np.radians(rng.uniform(40, 180, (6, 2)))
-    return handarm.ArmDesign(
-        link_lengths=rng.uniform(0.02, 0.08, 7),
-        joint_limits=[(-lo, hi) for lo, hi in lim],
-    )
+    """Unequal lengths and asymmetric limits up to +-180 degrees.
+
+    Drawn again while none of 512 random configurations is valid: with 20-30 mm links (less
+    than a fork is long) the printed links can leave no valid configuration at all, and
+    ``valid_configurations`` would look for one forever.
+    """
+    while True:
+        lim = np.radians(rng.uniform(40, 180, (6, 2)))
+        design = handarm.ArmDesign(
+            link_lengths=rng.uniform(0.02, 0.08, 7),
+            joint_limits=[(-lo, hi) for lo, hi in lim],
+        )
+        if handarm.is_valid(design, rng.uniform(design.lower, design.upper, (512, 6))).any():
+            return design
 
 
 def valid_configurations(design, rng, n):
