@@ -337,13 +337,14 @@ def carve(
     tick = progress or (lambda label: None)
     blanks = [link_blank(design, k) for k in range(7)]
     solids = [_blank_solid(b) for b in blanks]
+    floors = [_wall_floor(design, solid) for solid in solids]  # each link's, measured once
     carve_limits = []
     cut_prox: list[Manifold | None] = [None] * 7  # cut made by the joint at the link's prox end
     cut_dist: list[Manifold | None] = [None] * 7
     for j in range(1, 7):
         lo, hi = design.joint_limits[j - 1]
         lo, hi, sp, sd = _largest_healthy_range(
-            blanks, solids, j, lo, hi, step, grow, cut_prox[j - 1], design
+            blanks, solids, j, lo, hi, step, grow, cut_prox[j - 1], design, floors[j - 1 : j + 1]
         )
         carve_limits.append((lo, hi))
         cut_dist[j - 1], cut_prox[j] = sp, sd
@@ -398,19 +399,19 @@ def carve(
     return CarveResult(design, tuple(links), tuple(joints), resolution_deg)
 
 
-def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, design):
+def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, design, walls):
     """Carve joint j's range if both links survive it, else the largest scaled range that does.
 
     A link survives when it stays healthy (``_healthy``) and keeps no wall thinner than
     ``min_wall`` (or than its blank's own thinnest wall, if thinner): a range whose sweep
-    would leave a skin is not achievable. The proximal link is judged with ``prev_cut``
-    (what joint j-1 already took from it) as well, so a link survives its combined cuts.
+    would leave a skin is not achievable (``walls``: the two links' ``_wall_floor``). The
+    proximal link is judged with ``prev_cut`` (what joint j-1 already took from it) as
+    well, so a link survives its combined cuts.
     Raises ValueError naming the joint, the link and the design field when not even the
     joint held still leaves healthy links.
     """
     prox = solids[j - 1] if prev_cut is None else solids[j - 1] - prev_cut
     carved = (lambda sp: prox - sp, lambda sd: solids[j] - sd)
-    walls = (_wall_floor(design, solids[j - 1]), _wall_floor(design, solids[j]))
 
     def cuts(f):
         sp = _sweep_into_proximal(blanks, solids, j, lo * f, hi * f, step, grow)
@@ -420,13 +421,17 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, desi
     def healthy(sp, sd):
         return _healthy(blanks[j - 1], carved[0](sp)) and _healthy(blanks[j], carved[1](sd))
 
-    def printable(sp, sd):
-        return healthy(sp, sd) and all(
+    def walls_kept(sp, sd):
+        return all(
             _thinnest(c(cut)) >= w for c, cut, w in zip(carved, (sp, sd), walls, strict=True)
         )
 
+    def printable(sp, sd):
+        return healthy(sp, sd) and walls_kept(sp, sd)
+
     sp, sd = cuts(1.0)
-    if printable(sp, sd):
+    whole = healthy(sp, sd)
+    if whole and walls_kept(sp, sd):
         return lo, hi, sp, sd
     good, bad = 0.0, 1.0
     best = cuts(0.0)
@@ -434,7 +439,7 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, desi
     # not the range's: the range is then judged on health alone, and the link's report
     # says where its walls are thin
     ok = printable if printable(*best) else healthy
-    if ok is healthy and healthy(sp, sd):
+    if ok is healthy and whole:
         return lo, hi, sp, sd
     if not healthy(*best):
         k = 0 if not _healthy(blanks[j - 1], carved[0](best[0])) else 1
