@@ -265,3 +265,63 @@ def test_far_groups_are_the_pairs_of_links_out_of_reach():
         excluded += beyond.sum()
         assert not pairs[beyond, lp].any(), (la, lb)
     assert excluded > 1000  # the thresholds leave groups out of many targets
+
+
+@pytest.mark.parametrize("name", list(DESIGNS))
+def test_pair_table_leaves_are_the_model(name):
+    """Every FREE leaf of a joint-space table is free under the model and every HIT leaf
+    in contact, at random configurations of several designs (asymmetric limits, other
+    lengths and beams), and the tables decide almost every configuration."""
+    from handarm import _pairtable as T
+
+    design = DESIGNS[name]
+    nodes, off, dom = collision.pair_tables(design)
+    rng = np.random.default_rng(3)
+    q = rng.uniform(design.lower, design.upper, (20000, 6))
+    hits = collision.printed_collisions(design, q)
+    stack, bounds = np.zeros(T.QUERY_STACK, np.int64), np.zeros((T.QUERY_STACK, 4))
+    for k, lp in enumerate(collision.TABLE_PAIRS):
+        box = [(x, x, y, y) for x, y in q[:, k : k + 2]]
+        got = np.array([T.query_box(nodes, off[k], dom[k], *b, stack, bounds) for b in box])
+        assert not np.any((got == T.FREE) & hits[:, lp]), (k, "FREE leaf in contact")
+        assert not np.any((got == T.HIT) & ~hits[:, lp]), (k, "HIT leaf free")
+        assert np.mean(got == T.UNSURE) < 0.02  # near a contact, within a cell
+
+
+@pytest.mark.parametrize("name", list(DESIGNS))
+def test_pair_table_boxes_hold_everywhere_in_them(name):
+    """A box of joint angles that a table calls FREE (HIT) holds no configuration in
+    contact (free): boxes of every size, checked at configurations spread over them."""
+    from handarm import _pairtable as T
+
+    design = DESIGNS[name]
+    nodes, off, dom = collision.pair_tables(design)
+    rng = np.random.default_rng(4)
+    stack, bounds = np.zeros(T.QUERY_STACK, np.int64), np.zeros((T.QUERY_STACK, 4))
+    decided = 0
+    for k, lp in enumerate(collision.TABLE_PAIRS):
+        for _ in range(150):
+            width = 10.0 ** rng.uniform(-4, 0, 2)
+            lo = rng.uniform(design.lower[k : k + 2], design.upper[k : k + 2] - width)
+            hi = lo + width
+            s = T.query_box(nodes, off[k], dom[k], lo[0], hi[0], lo[1], hi[1], stack, bounds)
+            if s == T.UNSURE:
+                continue
+            decided += 1
+            q = rng.uniform(design.lower, design.upper, (200, 6))
+            q[:, k : k + 2] = rng.uniform(lo, hi, (200, 2))
+            q[:4, k : k + 2] = [lo, hi, [lo[0], hi[1]], [hi[0], lo[1]]]  # the corners too
+            hit = collision.printed_collisions(design, q)[:, lp]
+            assert hit.all() if s == T.HIT else not hit.any(), (k, lo, hi, s)
+    assert decided > 300
+
+
+def test_a_box_outside_its_table_is_unsure():
+    from handarm import _pairtable as T
+
+    design = handarm.ArmDesign()
+    nodes, off, dom = collision.pair_tables(design)
+    stack, bounds = np.zeros(T.QUERY_STACK, np.int64), np.zeros((T.QUERY_STACK, 4))
+    lo, hi = design.lower[0], design.upper[0]
+    assert T.query_box(nodes, off[0], dom[0], lo - 0.01, lo, 0.0, 0.0, stack, bounds) == T.UNSURE
+    assert T.query_box(nodes, off[0], dom[0], 0.0, 0.0, 0.0, hi + 0.3, stack, bounds) == T.UNSURE

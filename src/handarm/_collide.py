@@ -41,14 +41,14 @@ JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 N_FRAMES = 14
 #: Columns of a placed piece: segment ends in its plane (4), bounding-sphere centre (3), how
 #: far it can move (1), how far it slides along its own segment and the unit direction of
-#: that slide (3), how far it can move relative to l3 (1, l2 and l4 only: see ``_REL``).
+#: that slide (3), how far it can move relative to l3 (1, l2 and l4 only: see ``REL``).
 PLACED = 12
 #: Column of a placed piece's motion relative to l3. l2 turns about joint 3 and l4 about
 #: joint 4, and both joints slide along L with l3 by the same amount: seen from l3, which
 #: only slides, a piece of l2 or l4 moves by its turn alone. The model is unchanged when
 #: both pieces of a pair slide together along L, so the pair (l2, l4) is tested with these
 #: motions (their slide cancels), and every other pair with the pieces' motions in space.
-_REL = 11
+REL = 11
 
 
 @nb.njit(**JIT)
@@ -169,6 +169,23 @@ def _placed(c, s, ox, oy, sx0, sy0, sx1, sy1, z0, z1, plane, dx, dy, fx, fy):
         return x0, y0, x1, y1, mx, my, mw
     # sigma, v in the tip plane; local z is -n = (dy, -dx)
     return x0, y0, x1, y1, fx + mx * dx + mw * dy, fy + mx * dy - mw * dx, my
+
+
+@nb.njit(**JIT)
+def place_piece(k, frames, pi, pf, xy):
+    """Place piece k for the pose in ``frames``: its segment and sphere centre into xy[k].
+
+    Returns the piece's frame slot.
+    """
+    slot = 12 if pi[k, 0] == 6 else 2 * pi[k, 0] + pi[k, 1]
+    x0, y0, x1, y1, cx, cy, cz = _placed(
+        frames[slot, 0], frames[slot, 1], frames[slot, 2], frames[slot, 3],
+        pf[k, 0], pf[k, 1], pf[k, 2], pf[k, 3], pf[k, 5], pf[k, 6], pi[k, 2],
+        frames[13, 0], frames[13, 1], frames[13, 2], frames[13, 3],
+    )  # fmt: skip
+    xy[k, 0], xy[k, 1], xy[k, 2], xy[k, 3] = x0, y0, x1, y1
+    xy[k, 4], xy[k, 5], xy[k, 6] = cx, cy, cz
+    return slot
 
 
 @nb.njit(**JIT)
@@ -323,10 +340,10 @@ def cover_search(along, across):
 def _moves(xy, i, col):
     """How far placed piece i (and its bounding sphere) can move: grow plus slide.
 
-    ``col`` is 7 (in space) or ``_REL`` (relative to l3: no slide).
+    ``col`` is 7 (in space) or ``REL`` (relative to l3: no slide).
     """
-    if col == _REL:
-        return xy[i, _REL]
+    if col == REL:
+        return xy[i, REL]
     return xy[i, 7] + xy[i, 8]
 
 
@@ -342,8 +359,8 @@ def _swept(xy, pf, i, sgn, col):
     2 e, the disc at its middle with the radius shrunk by e minus half the length.
     """
     x0, y0, x1, y1 = xy[i, 0], xy[i, 1], xy[i, 2], xy[i, 3]
-    if col == _REL:
-        return x0, y0, x1, y1, pf[i, 4] + sgn * xy[i, _REL]
+    if col == REL:
+        return x0, y0, x1, y1, pf[i, 4] + sgn * xy[i, REL]
     r = pf[i, 4] + sgn * xy[i, 7]
     e = xy[i, 8]
     if e > 0.0:
@@ -367,7 +384,7 @@ def _contact(xy, pi, pf, i, j, sgn, dx, dy, fx, fy, c, col):
 
     The model's two tests: bounding spheres that overlap and pieces that meet (see
     ``_swept``; a bounding sphere moves with its piece, by at most grow + slide). ``col``:
-    motions in space (7) or relative to l3 (``_REL``).
+    motions in space (7) or relative to l3 (``REL``).
     """
     gi = sgn * _moves(xy, i, col)
     gj = sgn * _moves(xy, j, col)
@@ -410,7 +427,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
             continue
         first = groups[g, 2] - 1  # row -1 of the group: its two bounding pieces
         single = groups[g, 2] == groups[g, 3]  # the group is that one pair
-        col = _REL if pi[groups[g, 0], 0] == 2 and pi[groups[g, 1], 0] == 4 else 7
+        col = REL if pi[groups[g, 0], 0] == 2 and pi[groups[g, 1], 0] == 4 else 7
         g_unsure = False
         for r in range(first, groups[g, 3]):
             if r == first:
@@ -420,14 +437,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
             for k in (i, j):
                 if stamp[k] != now:
                     stamp[k] = now
-                    slot = 12 if pi[k, 0] == 6 else 2 * pi[k, 0] + pi[k, 1]
-                    x0, y0, x1, y1, cx, cy, cz = _placed(
-                        frames[slot, 0], frames[slot, 1], frames[slot, 2], frames[slot, 3],
-                        pf[k, 0], pf[k, 1], pf[k, 2], pf[k, 3], pf[k, 5], pf[k, 6], pi[k, 2],
-                        dx, dy, fx, fy,
-                    )  # fmt: skip
-                    xy[k, 0], xy[k, 1], xy[k, 2], xy[k, 3] = x0, y0, x1, y1
-                    xy[k, 4], xy[k, 5], xy[k, 6] = cx, cy, cz
+                    slot = place_piece(k, frames, pi, pf, xy)
                     grow, slide, rel = 0.0, 0.0, 0.0
                     if moving and pi[k, 3] == 1:
                         # l3 moves by sliding along L, here along the segment: exactly
@@ -449,7 +459,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                             rel -= coef[k, o, 0] * m0
                     xy[k, 7] = grow
                     xy[k, 8] = slide
-                    xy[k, _REL] = rel
+                    xy[k, REL] = rel
             still = _moves(xy, i, col) == 0.0 and _moves(xy, j, col) == 0.0
             if g_unsure:
                 # the group is unsure already: only a contact all along can change that

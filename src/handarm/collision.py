@@ -514,3 +514,114 @@ def motion_coefficients(design: ArmDesign, env: Envelopes | None = None) -> np.n
             coef[i, :, 4] = reach((-a[5], 0.0)) if f == 0 else reach((0.0, 0.0))
     coef *= 1.0 + 1e-12
     return coef
+
+
+#: Link pairs two links apart, whose model status depends on the two joints between them
+#: alone: each gets a joint-space table (``pair_tables``). Index into ``LINK_PAIRS``.
+TABLE_PAIRS = tuple(LINK_PAIRS.index((k, k + 2)) for k in range(5))
+_TABLE_NODES = 1 << 19
+#: The tables' finest cells (rad a side): 1.4 degrees. Finer cells decide more stretches
+#: near a contact and cost more nodes to build (``pair_tables``).
+TABLE_CELL = 2.0 * math.pi / 256
+
+
+def pair_reach(env: Envelopes, design: ArmDesign, pieces: np.ndarray, joint: str) -> np.ndarray:
+    """How far each piece reaches from its link's proximal or distal joint (m), shape (n,).
+
+    ``joint`` is "prox" or "dist": the largest distance from that joint (a point on its
+    axle) to a point of the piece: a segment end, its radius, its slab's far face.
+    """
+    a = design.lengths
+    out = np.empty(len(pieces))
+    for n, i in enumerate(pieces):
+        k, frame = int(env.link[i]), int(env.frame[i])
+        ends = env.seg[i].reshape(2, 2).copy()
+        if joint == "prox" and frame == 1:
+            ends[:, 0] += a[k]  # the distal frame lies a_k along the link's x
+        elif joint == "dist" and frame == 0:
+            ends[:, 0] -= a[k]
+        flat = float(np.linalg.norm(ends, axis=1).max()) + float(env.radius[i])
+        out[n] = math.hypot(flat, float(np.abs(env.z[i]).max()))
+    return out * (1.0 + 1e-12)
+
+
+def _table_coefficients(env: Envelopes, design: ArmDesign, k: int):
+    """Pieces of links k and k + 2, and how far each moves per radian of joints k+1, k+2.
+
+    The frame held still keeps every piece in its plane (``handarm._pairtable``).
+    """
+    a = design.lengths
+    pieces = np.flatnonzero((env.link == k) | (env.link == k + 2))
+    ci, cj = np.zeros(len(pieces)), np.zeros(len(pieces))
+    near = env.link[pieces] == k
+    if k == 1:  # l3 still: l1 turns about joint 3 (a2 away) and joint 2
+        r = pair_reach(env, design, pieces[near], "dist")
+        ci[near], cj[near] = r, a[2] + r
+    elif k == 2:  # l3 still: l2 turns about joint 3, l4 about joint 4
+        ci[near] = pair_reach(env, design, pieces[near], "dist")
+        cj[~near] = pair_reach(env, design, pieces[~near], "prox")
+    else:  # l_k still: l_k+2 turns about joint k + 1 (a_k+1 away) and joint k + 2
+        r = pair_reach(env, design, pieces[~near], "prox")
+        ci[~near], cj[~near] = a[k + 1] + r, r
+    return pieces, ci, cj
+
+
+@functools.lru_cache(maxsize=64)
+def pair_tables(design: ArmDesign) -> tuple:
+    """The joint-space tables of the five link pairs two links apart, as the kernels take them.
+
+    Returns ``(nodes, offsets, domains)``: every table's quadtree in one int32 array
+    (``handarm._pairtable``), where each starts (5,), and each one's joint rectangle (5, 4)
+    in radians (the design's limits of joints k + 1 and k + 2, a hair wider). The tables
+    are built once per design; a table that would need more than 2**19 nodes is one MIXED
+    leaf (it proves nothing).
+    """
+    from handarm import _pairtable  # numba: compiled on first use, not at import
+
+    env = envelopes(design)
+    a = design.lengths
+    parts, offsets, domains = [], [], []
+    total = 0
+    for k, lp in enumerate(TABLE_PAIRS):
+        pieces, ci, cj = _table_coefficients(env, design, k)
+        g0, g1 = env.lp_groups[lp]
+        dom = np.array(
+            [design.lower[k] - 1e-9, design.upper[k] + 1e-9,
+             design.lower[k + 1] - 1e-9, design.upper[k + 1] + 1e-9]
+        )  # fmt: skip
+        nodes = _pairtable.build_table(
+            k, *dom, a, pieces, ci, cj, env.pi, env.pf, env.groups, env.rows,
+            int(g0), int(g1), env.clearance, TABLE_CELL, _TABLE_NODES,
+        )  # fmt: skip
+        parts.append(nodes)
+        offsets.append(total)
+        domains.append(dom)
+        total += len(nodes)
+    out = (
+        np.concatenate(parts).astype(np.int32),
+        np.array(offsets, np.int64),
+        np.array(domains, dtype=float),
+    )
+    for arr in out:
+        arr.flags.writeable = False
+    return out
+
+
+def kernel_tables(design: ArmDesign) -> tuple:
+    """``pair_tables`` and each table's groups as a bit mask, as the IK kernels take them.
+
+    Returns (nodes, offsets, domains, masks): masks (5,) int64, bit g for group g of the
+    table's link pair.
+    """
+    return (*pair_tables(design), _table_masks(design))
+
+
+@functools.lru_cache(maxsize=64)
+def _table_masks(design: ArmDesign) -> np.ndarray:
+    env = envelopes(design)
+    masks = np.zeros(len(TABLE_PAIRS), np.int64)
+    for k, lp in enumerate(TABLE_PAIRS):
+        for g in range(*env.lp_groups[lp]):
+            masks[k] |= 1 << int(g)
+    masks.flags.writeable = False
+    return masks

@@ -22,19 +22,31 @@ from handarm.ik import _solve as S
 from handarm.ik.exact import _model
 
 
-def _claim(design, p, e, branch, ua, ub):
-    """(hit, free) of the kernel's test of the stretch [ua, ub] on ``branch``."""
-    a = design.lengths
-    _, pi, pf, groups, _, rows, c, coef, _, _ = _model(design)
-    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = PR.printed_scratch(len(pi))
+def _stretch(design, p, e, branch, ua, ub):
+    """The kernel's setup of the stretch [ua, ub] on ``branch``: (model, scratch, frames)."""
+    m = _model(design)
+    scratch = PR.printed_scratch(len(m[1]))
+    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch[:9]
     hn = math.hypot(e[0], e[1])
     dx, dy = branch[0] * e[0] / hn, branch[0] * e[1] / hn
     fr = np.empty(S.FRAMES_SIZE)
-    S._frames(p, e, dx, dy, a, fr)
-    eb, ee = float(branch[1]), float(branch[2])
-    nbk = PR.stretch_setup(fr, dx, dy, ua, ub, eb, ee, a, frames, st_v, bv, breaks)
+    S._frames(p, e, dx, dy, design.lengths, fr)
+    nbk = PR.stretch_setup(
+        fr, dx, dy, ua, ub, float(branch[1]), float(branch[2]), design.lengths, frames, st_v,
+        bv, breaks,
+    )  # fmt: skip
     assert nbk >= 0
-    ok, *mid = PR.pose_frames(fr, dx, dy, 0.5 * (ua + ub), eb, ee, a, frames)
+    return m, scratch, (fr, dx, dy, nbk)
+
+
+def _claim(design, p, e, branch, ua, ub):
+    """(hit, free) of the kernel's test of the stretch [ua, ub] on ``branch``."""
+    m, scratch, (fr, dx, dy, nbk) = _stretch(design, p, e, branch, ua, ub)
+    pi, pf, groups, rows, c, coef = m[1], m[2], m[3], m[5], m[6], m[7]
+    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch[:9]
+    ok, *mid = PR.pose_frames(
+        fr, dx, dy, 0.5 * (ua + ub), float(branch[1]), float(branch[2]), design.lengths, frames
+    )
     assert ok
     PR.new_pose(stamp)
     PR.stretch_motion(st_v, 0, ua, ub, *mid, breaks, bv, nbk, motion)
@@ -81,12 +93,12 @@ def test_a_contact_claim_holds_where_the_bounding_spheres_part():
         assert any(lo - 1e-9 <= x <= hi + 1e-9 for lo, hi in mine), x
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_stretch_claims_hold_at_every_sample(seed):
-    """Stretches of every width along the joint-limit ranges of FK targets: each claim holds."""
+def _stretches(seed, targets, widest):
+    """Stretches along the joint-limit ranges of FK targets (the paper's arm and random
+    designs), 6 per range, of widths 1e-5 m to 10**widest m:
+    (design, p, e, branch, ua, ub, azimuth)."""
     rng = np.random.default_rng(seed)
-    counts = {"hit": 0, "free": 0, "unsure": 0}
-    for k in range(30):
+    for k in range(targets):
         design = handarm.ArmDesign() if k % 2 == 0 else random_design(rng)
         q = valid_configurations(design, rng, 1)[0]
         p, e = handarm.forward(design, q)
@@ -95,11 +107,68 @@ def test_stretch_claims_hold_at_every_sample(seed):
         limits = ik.solve(design.replace(collision_model="paper"), p, e, degrade=False)
         for branch, (lo, hi) in zip(limits.branches, limits.intervals, strict=True):
             for _ in range(6):
-                width = min(hi - lo, 10 ** rng.uniform(-5, -1.5))
-                ua = rng.uniform(lo, hi - width)
-                hit, free = _check(design, p, e, tuple(branch), ua, ua + width, limits.azimuth)
-                counts["hit" if hit else "free" if free else "unsure"] += 1
+                width = min(hi - lo, 10 ** rng.uniform(-5, widest))
+                ua = lo if width == hi - lo else rng.uniform(lo, max(lo, hi - width))
+                yield design, p, e, tuple(branch), ua, ua + width, limits.azimuth
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_stretch_claims_hold_at_every_sample(seed):
+    """Stretches of every width along the joint-limit ranges of FK targets: each claim holds."""
+    counts = {"hit": 0, "free": 0, "unsure": 0}
+    for design, p, e, branch, ua, ub, azimuth in _stretches(seed, 30, -1.5):
+        hit, free = _check(design, p, e, branch, ua, ub, azimuth)
+        counts["hit" if hit else "free" if free else "unsure"] += 1
     assert min(counts.values()) >= 20, counts  # every kind of claim was put to the test
+
+
+def _table_claims(design, p, e, branch, ua, ub):
+    """The joint-space tables' claims on [ua, ub]: {pair index: "free" / "hit"}.
+
+    Each table pair asked alone, the stretch's box of joint angles built as
+    ``printed_ranges`` builds it (the angles at the ends and the breaks inside).
+    """
+    m, scratch, (fr, dx, dy, nbk) = _stretch(design, p, e, branch, ua, ub)
+    tnodes, toff, tdom, tmask = m[9], m[10], m[11], m[12]
+    st_v, bv, breaks = scratch[1], scratch[7], scratch[8]
+    st_q, bq, qs, qb, _ = scratch[9:]
+    for b in range(nbk):
+        PR.joint_angles(bv[b], dx, dy, fr[12], fr[13], bq[b])
+    PR.joint_angles(st_v[0, 0], dx, dy, fr[12], fr[13], st_q[0, 0])
+    PR.joint_angles(st_v[0, 1], dx, dy, fr[12], fr[13], st_q[0, 1])
+    claims = {}
+    for k, lp in enumerate(handarm.collision.TABLE_PAIRS):
+        hit, left = PR.tables_status(
+            int(tmask[k]), tmask, st_q, 0, ua, ub, bq, breaks, nbk, tnodes, toff, tdom, qs, qb
+        )
+        if hit:
+            claims[lp] = "hit"
+        elif left == 0:
+            claims[lp] = "free"
+    return claims
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_tables_claims_hold_along_the_line(seed):
+    """Stretches of every width along the limit ranges of FK targets (the paper's arm and
+    random designs): wherever a joint-space table calls its pair free (in contact) over a
+    stretch, the pair is free (in contact) at every sample of it."""
+    counts = {"hit": 0, "free": 0}
+    for design, p, e, branch, ua, ub, azimuth in _stretches(seed, 24, -1.0):
+        claims = _table_claims(design, p, e, branch, ua, ub)
+        if not claims:
+            continue
+        u = np.linspace(ua, ub, 64)
+        qq, ok = ik.configurations_along(design, p, e, branch, u, azimuth=azimuth)
+        assert ok.all()
+        pairs = handarm.collision.printed_collisions(design, qq)
+        for lp, claim in claims.items():
+            counts[claim] += 1
+            if claim == "hit":
+                assert pairs[:, lp].all(), (lp, branch, ua, ub)
+            else:
+                assert not pairs[:, lp].any(), (lp, branch, ua, ub)
+    assert counts["hit"] >= 10 and counts["free"] >= 100, counts  # both kinds were tested
 
 
 @pytest.mark.parametrize("seed", [0, 2])

@@ -34,13 +34,14 @@ import numba as nb
 import numpy as np
 
 from handarm._collide import N_FRAMES, PLACED, groups_status, new_pose, place_frames, set_frames
+from handarm._pairtable import FREE, HIT, QUERY_STACK, query_box
 from handarm.ik._common import JIT, MERGE_GAP, wrap
 
 #: Narrowest stretch of u (m) that is halved again; narrower ones are decided at their middle:
 #: no change of validity wider than this is missed.
 TOL = 5e-10
 _STACK = 96
-_MAX_BREAKS = 18
+_MAX_BREAKS = 18  # 8 stationary angles and a foot per sub-problem
 
 
 @nb.njit(**JIT)
@@ -190,11 +191,20 @@ def _stationary(nx, ny, dx, dy, b1, b2, out, n):
 
 @nb.njit(**JIT)
 def motion_breaks(fr, dx, dy, a, lo, hi, out):
-    """Sorted u in (lo, hi) where an absolute angle of l1, l2, l4 or l5 is stationary."""
-    tau = np.empty(16)
+    """Sorted u in (lo, hi) where an absolute angle of l1, l2, l4 or l5 is stationary.
+
+    Also where joint 2 or joint 5 is (the feet of the perpendiculars from joint 1 and joint
+    6 to L: an elbow's angle follows its chain's span): between these points every joint
+    angle is monotone in u.
+    """
+    tau = np.empty(18)
     n = _stationary(fr[0], fr[1], dx, dy, a[1], a[2], tau, 0)
+    tau[n] = 0.0
+    n += 1
     nb_ = n
     n = _stationary(fr[3], fr[4], fr[5], fr[6], a[5], a[4], tau, n)
+    tau[n] = 0.0
+    n += 1
     m = 0
     for i in range(n):
         u = tau[i] + fr[2] if i < nb_ else -(tau[i] + fr[7])
@@ -292,6 +302,62 @@ def stretch_motion(st_v, top, ua, ub, m0, m1, m2, m3, m4, m5, m6, m7, breaks, bv
 
 
 @nb.njit(**JIT)
+def _angle_between(ax, ay, bx, by):
+    return math.atan2(ax * by - ay * bx, ax * bx + ay * by)
+
+
+@nb.njit(**JIT)
+def joint_angles(v, dx, dy, ex, ey, out):
+    """The six joint angles from the link directions ``v`` of ``pose_frames`` (8,).
+
+    (dx, dy) is l3's direction, (ex, ey) l6's in the tip plane (the tool direction).
+    """
+    out[0] = math.atan2(v[1], v[0])
+    out[1] = _angle_between(v[0], v[1], v[2], v[3])
+    out[2] = _angle_between(v[2], v[3], dx, dy)
+    out[3] = math.atan2(v[5], v[4])
+    out[4] = _angle_between(v[4], v[5], v[6], v[7])
+    out[5] = _angle_between(v[6], v[7], ex, ey)
+
+
+#: Padding (rad) of a stretch's box of joint angles: rounding of the angles at its ends.
+_BOX_PAD = 1e-10
+
+
+@nb.njit(**JIT)
+def tables_status(mask, tmask, st_q, top, ua, ub, bq, breaks, nbk, tnodes, toff, tdom, qs, qb):
+    """The joint-space tables' verdict on the stretch at ``top``: (hit, mask left to test).
+
+    Over the stretch every joint angle lies between its values at the ends and at the
+    breaks inside (``motion_breaks``: each angle is monotone between them). A table pair
+    whose groups are in ``mask`` is FREE there (its groups leave the mask), HIT (the
+    stretch is invalid) or unsure (its groups stay). ``tmask[k]``: the groups of table k.
+    """
+    for k in range(tmask.shape[0]):
+        if not mask & tmask[k]:
+            continue
+        lo0 = min(st_q[top, 0, k], st_q[top, 1, k])
+        hi0 = max(st_q[top, 0, k], st_q[top, 1, k])
+        lo1 = min(st_q[top, 0, k + 1], st_q[top, 1, k + 1])
+        hi1 = max(st_q[top, 0, k + 1], st_q[top, 1, k + 1])
+        for b in range(nbk):
+            if ua < breaks[b] < ub:
+                lo0, hi0 = min(lo0, bq[b, k]), max(hi0, bq[b, k])
+                lo1, hi1 = min(lo1, bq[b, k + 1]), max(hi1, bq[b, k + 1])
+        if hi0 - lo0 > math.pi or hi1 - lo1 > math.pi:
+            continue  # an angle at +-pi may read as either end: leave it to the model
+        s = query_box(
+            tnodes, toff[k], tdom[k], lo0 - _BOX_PAD, hi0 + _BOX_PAD, lo1 - _BOX_PAD,
+            hi1 + _BOX_PAD, qs, qb,
+        )  # fmt: skip
+        if s == HIT:
+            return True, mask
+        if s == FREE:
+            mask &= ~tmask[k]
+    return False, mask
+
+
+@nb.njit(**JIT)
 def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
     """The printed-link model at one configuration (joint 4 at u along L): no contact."""
     pi, pf, groups, rows, c = env[0], env[1], env[2], env[4], env[5]
@@ -317,6 +383,11 @@ def printed_scratch(n_pieces):
         np.empty(5),  # motion of the stretch (see ``groups_status``)
         np.empty((_MAX_BREAKS, 8)),  # link directions where an angle is stationary
         np.empty(_MAX_BREAKS),
+        np.empty((_STACK, 2, 6)),  # joint angles at the stretch ends (tables only)
+        np.empty((_MAX_BREAKS, 6)),  # joint angles at the breaks
+        np.empty(QUERY_STACK, np.int64),  # the tables' query stack
+        np.empty((QUERY_STACK, 4)),
+        np.empty(8),  # the middle's link directions
     )
 
 
@@ -332,12 +403,24 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
     full.
     """
     pi, pf, groups, rows, c, coef = mdl[1], mdl[2], mdl[3], mdl[5], mdl[6], mdl[7]
-    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch
+    tnodes, toff, tdom, tmask = mdl[9], mdl[10], mdl[11], mdl[12]
+    st_u, st_v, st_mask, frames, xy, stamp, motion, bv, breaks = scratch[:9]
+    st_q, bq, qs, qb, mv = scratch[9:]
     # where an absolute angle is stationary: its largest change over a stretch holding such
     # a point may be there rather than at the stretch's ends
     nbk = stretch_setup(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, frames, st_v, bv, breaks)
     if nbk < -1:
         return -1
+    tall = 0
+    for k in range(tmask.shape[0]):
+        tall |= tmask[k]
+    ex, ey = fr[12], fr[13]
+    if mask0 & tall and nbk >= 0:
+        # joint angles where the tables will need them: the breaks and the range's ends
+        for b in range(nbk):
+            joint_angles(bv[b], dx, dy, ex, ey, bq[b])
+        joint_angles(st_v[0, 0], dx, dy, ex, ey, st_q[0, 0])
+        joint_angles(st_v[0, 1], dx, dy, ex, ey, st_q[0, 1])
     first = n_out
     ok = nbk >= 0
     if ok:
@@ -355,6 +438,14 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
         )
         if not ok:
             continue
+        tables = mask & tall != 0
+        if tables:
+            # the pairs two links apart first, from their joint-space tables
+            hit, mask = tables_status(
+                mask, tmask, st_q, top, ua, ub, bq, breaks, nbk, tnodes, toff, tdom, qs, qb
+            )
+            if hit:
+                continue
         new_pose(stamp)
         narrow = ub - ua <= TOL
         if narrow:
@@ -380,6 +471,12 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
             continue
         if top + 2 > st_u.shape[0]:
             return -1
+        if tables:
+            # the halves' joint angles: the left one ends, the right one starts, at um
+            mv[0], mv[1], mv[2], mv[3], mv[4], mv[5], mv[6], mv[7] = m0, m1, m2, m3, m4, m5, m6, m7
+            st_q[top + 1, 0, :] = st_q[top, 0, :]
+            joint_angles(mv, dx, dy, ex, ey, st_q[top + 1, 1])
+            st_q[top, 0, :] = st_q[top + 1, 1, :]
         split_stretch(st_u, st_v, top, ua, um, ub, m0, m1, m2, m3, m4, m5, m6, m7)
         st_mask[top + 1] = unsure
         st_mask[top] = unsure

@@ -166,8 +166,9 @@ def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi
     ``mdl`` is the collision model, one flat tuple (numba's parallel loops take no nested
     tuples): paper, then the envelopes as ``handarm.collision.kernel_env`` gives them
     (``mdl[1:7]``: pi, pf, groups, lp_groups, rows, clearance), their motion coefficients,
-    the groups' far thresholds (``handarm.collision.far_thresholds``), the narrowest range
-    counted.
+    the groups' far thresholds (``handarm.collision.far_thresholds``), the joint-space
+    tables (``mdl[9:13]``, ``handarm.collision.kernel_tables``), the narrowest range
+    counted (``mdl[-1]``).
     """
     work = _workspace(lower, upper, mdl[1].shape[0])
     return _solve_any_azimuth(
@@ -278,7 +279,7 @@ def _near_groups(p, e, a, far):
 def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first):
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
     paper = mdl[0]
-    min_width = mdl[9]
+    min_width = mdl[-1]
     cap = out_q.shape[0]
     mask = _near_groups(p, e, a, mdl[8])
     hx, hy = e[0], e[1]

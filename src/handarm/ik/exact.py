@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from handarm._checks import check_array, check_design, check_joints
-from handarm.collision import kernel_coefficients, kernel_env, kernel_far
+from handarm.collision import kernel_coefficients, kernel_env, kernel_far, kernel_tables
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
 from handarm.ik._common import VERTICAL_EPS, wrap
@@ -307,6 +307,7 @@ def _model_cached(design: ArmDesign, min_width: float) -> tuple:
         *kernel_env(source),
         kernel_coefficients(source),
         kernel_far(source),
+        *kernel_tables(source),
         float(min_width),
     )
 
