@@ -25,19 +25,26 @@ from handarm.ik._common import JIT
 
 
 @nb.njit(**JIT)
-def tool_point_and_jacobian(q, a, p, jac):
-    """Fill p (3,) with the tool point of q and jac (3, 6) with dp/dq."""
+def _chain(q, a):
+    """(t1, t2, t3, s1, s2, s3, u, v) of q: the summed angles and the tip plane's (u, v)."""
     t1 = q[0]
     t2 = t1 + q[1]
     t3 = t2 + q[2]
     s1 = q[3]
     s2 = s1 + q[4]
     s3 = s2 + q[5]
+    u = a[4] * math.cos(s1) + a[5] * math.cos(s2) + a[6] * math.cos(s3)
+    v = a[4] * math.sin(s1) + a[5] * math.sin(s2) + a[6] * math.sin(s3)
+    return t1, t2, t3, s1, s2, s3, u, v
+
+
+@nb.njit(**JIT)
+def tool_point_and_jacobian(q, a, p, jac):
+    """Fill p (3,) with the tool point of q and jac (3, 6) with dp/dq."""
+    t1, t2, t3, s1, s2, s3, u, v = _chain(q, a)
     c1, n1 = math.cos(t1), math.sin(t1)
     c2, n2 = math.cos(t2), math.sin(t2)
     c3, n3 = math.cos(t3), math.sin(t3)
-    u = a[4] * math.cos(s1) + a[5] * math.cos(s2) + a[6] * math.cos(s3)
-    v = a[4] * math.sin(s1) + a[5] * math.sin(s2) + a[6] * math.sin(s3)
     p[0] = a[1] * c1 + a[2] * c2 + a[3] * c3 + u * c3
     p[1] = a[1] * n1 + a[2] * n2 + a[3] * n3 + u * n3
     p[2] = v
@@ -55,6 +62,19 @@ def tool_point_and_jacobian(q, a, p, jac):
         du -= a[j + 1] * math.sin(s)
         dv += a[j + 1] * math.cos(s)
         jac[0, j], jac[1, j], jac[2, j] = du * c3, du * n3, dv
+
+
+@nb.njit(**JIT)
+def tool_pose(q, a, out):
+    """Fill out (8,) with the tool point (3), tool direction (3) and joint 4's (x, y) of q."""
+    t1, t2, t3, _, _, s3, u, v = _chain(q, a)
+    c3, n3 = math.cos(t3), math.sin(t3)
+    jx = a[1] * math.cos(t1) + a[2] * math.cos(t2) + a[3] * c3
+    jy = a[1] * math.sin(t1) + a[2] * math.sin(t2) + a[3] * n3
+    out[0], out[1], out[2] = jx + u * c3, jy + u * n3, v
+    cs = math.cos(s3)
+    out[3], out[4], out[5] = cs * c3, cs * n3, math.sin(s3)
+    out[6], out[7] = jx, jy
 
 
 @nb.njit(**JIT)

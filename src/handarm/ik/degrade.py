@@ -42,9 +42,11 @@ import math
 
 import numpy as np
 
+from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._polish import polish_to_point
+from handarm.ik._nearest import polish_each
+from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import refine_directions
 from handarm.ik.results import IKResult
 from handarm.kinematics import forward, is_valid
@@ -122,9 +124,23 @@ def _solve_exact(design: ArmDesign, p, e, current) -> IKResult:
     return solve_in_scene(design, p, e, scene[0], scene[1], current)
 
 
+def _pose(design: ArmDesign, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tool point and direction of one configuration (``forward`` in scalar arithmetic)."""
+    out = np.empty(8)
+    tool_pose(np.ascontiguousarray(q, dtype=float), design.lengths, out)
+    return out[:3], out[3:6]
+
+
 def _valid(design: ArmDesign, q) -> bool:
     """Valid under the design's collision model, and clear of the scene if there is one."""
-    if not is_valid(design, q):
+    q = np.asarray(q, dtype=float)
+    if design.collision_model == "printed" and q.shape == (6,):
+        # is_valid for one configuration without its array checks (q is ours, finite)
+        if not (np.all(q >= design.lower) and np.all(q <= design.upper)):
+            return False
+        if not collision_free(design, q[None, :])[0]:
+            return False
+    elif not is_valid(design, q):
         return False
     scene = _SCENE.get()
     if scene is None:
@@ -433,19 +449,20 @@ def degrade_target(
 
 
 def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
+    if math.sqrt(float(p @ p)) > float(np.sum(design.lengths[1:])) * (1.0 + 1e-12):
+        # beyond the stretched arm's reach from joint 1: nothing reaches p (not even a
+        # degenerate pose) and no direction is solvable there, so levels 4 and 3 have
+        # nothing to find
+        return _two_dof(design, p, e, current)
     # degenerate exact poses (the straight arm): the stretched arm aimed at p, polished
     for q in _configs_reaching(design, p, current, cloud=False):
-        if float(_angle(forward(design, q)[1], e)) < 1e-9:
+        if float(_angle(_pose(design, q)[1], e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
-    if math.sqrt(float(p @ p)) > float(np.sum(design.lengths[1:])) * (1.0 + 1e-12):
-        # beyond the stretched arm's reach from joint 1: no direction is solvable at p,
-        # so levels 4 and 3 have nothing to find
-        return _two_dof(design, p, e, current)
     if order == "paper":
         result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
         if result is not None:
             return result
-    seeds = [forward(design, q)[1] for q in _configs_reaching(design, p, current)]
+    seeds = [_pose(design, q)[1] for q in _configs_reaching(design, p, current)]
     if order == "angle":
         seeds += _circle_candidates(design, p, e, current, prune=False)
     result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
@@ -499,14 +516,19 @@ def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
     return q
 
 
-def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> list[np.ndarray]:
-    """Valid starting configurations: the stretched arm aimed at p, current, cloud points."""
+def _start_seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
+    """The stretched arm aimed at p, and current, each clipped to the limits."""
     q1 = float(np.clip(math.atan2(p[1], p[0]), design.lower[0], design.upper[0]))
     q4 = float(np.clip(math.atan2(p[2], math.hypot(p[0], p[1])), design.lower[3], design.upper[3]))
     seeds = [np.clip(np.array([q1, 0.0, 0.0, q4, 0.0, 0.0]), design.lower, design.upper)]
     if current is not None:
         seeds.append(np.clip(current, design.lower, design.upper))
-    seeds = [q for q in seeds if _valid(design, q)]
+    return seeds
+
+
+def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> list[np.ndarray]:
+    """Valid starting configurations: the stretched arm aimed at p, current, cloud points."""
+    seeds = [q for q in _start_seeds(design, p, current) if _valid(design, q)]
     cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
     if len(cloud_q):
         # the nearest that are valid (in a scene, many near p may meet an obstacle)
@@ -519,24 +541,45 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> lis
     return seeds
 
 
+def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True):
+    """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,)).
+
+    Invalid seeds have distance inf. Under the printed-link model with no scene one
+    compiled call does it all (``handarm.ik._nearest``); else seed by seed.
+    """
+    target = np.ascontiguousarray(p, dtype=float)
+    if design.collision_model == "printed" and _SCENE.get() is None:
+        seeds = np.ascontiguousarray(_start_seeds(design, p, current), dtype=float)
+        if cloud:
+            cloud_q, cloud_p = _position_cloud(design)
+        else:
+            cloud_q, cloud_p = np.zeros((0, 6)), np.zeros((0, 3))
+        n_cloud = min(_SEEDS, len(cloud_q))
+        out_q = np.zeros((len(seeds) + n_cloud, 6))
+        out_err = np.full(len(seeds) + n_cloud, np.inf)
+        pi, pf, groups, _, rows, c = kernel_env(design)
+        n = polish_each(
+            seeds, cloud_q, cloud_p, n_cloud, target, design.lengths, design.lower,
+            design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err,
+        )  # fmt: skip
+        return out_q[:n], out_err[:n]
+    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, cloud)]
+    errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
+    return np.array(qs).reshape(-1, 6), np.array(errs)
+
+
 def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> list[np.ndarray]:
     """Valid configurations whose tool point is p (to 1e-9 m), from polished seeds."""
-    out = []
-    for q0 in _seeds(design, p, current, cloud):
-        q = _polish(design, q0, p)
-        if np.linalg.norm(forward(design, q)[0] - p) < 1e-9:
-            out.append(q)
-    return out
+    qs, errs = _polished(design, p, current, cloud)
+    return [q for q, err in zip(qs, errs, strict=True) if err < 1e-9]
 
 
 def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can."""
     best_q, best_err = None, math.inf
-    for q0 in _seeds(design, p, current):
-        q = _polish(design, q0, p)
-        err = float(np.linalg.norm(forward(design, q)[0] - p))
+    for q, err in zip(*_polished(design, p, current), strict=True):
         if err < best_err - 1e-12:
-            best_q, best_err = q, err
+            best_q, best_err = q, float(err)
     if best_q is None and _SCENE.get() is not None:  # nothing clear of the scene near p
         return IKResult(
             np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 0, 0.0, 0.0,
@@ -544,8 +587,8 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
         )  # fmt: skip
     if best_q is None:  # no valid seed at all: the zero pose is the fallback
         best_q = np.zeros(6)
-        best_err = float(np.linalg.norm(forward(design, best_q)[0] - p))
-    p_reached, e_reached = forward(design, best_q)
+        best_err = float(np.linalg.norm(_pose(design, best_q)[0] - p))
+    p_reached, e_reached = _pose(design, best_q)
     # point at the target from there, if that pose has a solution
     aim = p - p_reached
     if np.linalg.norm(aim) > 1e-12:
@@ -569,11 +612,22 @@ def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
     their limits) that the range solver, which classifies open gaps between events, cannot
     see; ``achieved_direction`` is then e itself.
     """
-    branch, u = S.branch_of(design, q)
-    p_reached, e_reached = forward(design, q)
+    pose = np.empty(8)
+    tool_pose(np.ascontiguousarray(q, dtype=float), design.lengths, pose)
+    p_reached, e_reached = pose[:3].copy(), pose[3:6].copy()
+    psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
+    # the branch and u as ``exact.branch_of`` gives them
+    dx, dy = math.cos(q[0] + q[1] + q[2]), math.sin(q[0] + q[1] + q[2])
+    u = (pose[6] - pose[0]) * dx + (pose[7] - pose[1]) * dy
+    branch = np.array(
+        [
+            1 if dx * e_reached[0] + dy * e_reached[1] >= 0.0 else -1,
+            1 if q[1] >= 0.0 else -1,
+            1 if q[4] >= 0.0 else -1,
+        ]
+    )
     if dof == 5:
         p_reached, e_reached = p.copy(), e.copy()
-    psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
     return IKResult(
         q[None, :],
         branch[None, :],
