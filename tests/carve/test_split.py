@@ -258,3 +258,69 @@ def test_a_bridge_too_long_for_any_screw_is_a_problem_not_a_crash():
     assert len(splits) == 7
     assert any("no M3 screw" in p for s in splits for p in s.problems)
     assert all(len(s.parts) >= 1 for s in splits)
+
+
+def _stl_watertight(solid: Manifold) -> bool:
+    """Whether the solid, written as a binary STL (float32) and read back, is closed."""
+    import io
+
+    import trimesh
+
+    data = to_trimesh(solid).export(file_type="stl")
+    return trimesh.load(io.BytesIO(data), file_type="stl").is_watertight
+
+
+def test_every_printed_part_is_closed_as_written(carved):
+    for s in carved.printed:
+        for part in s.parts:
+            assert _stl_watertight(part.solid), part.name
+
+
+#: Random designs whose printed parts were not closed as written: link lengths (m), hub
+#: radius, beam width, cable diameter and clearance (mm).
+OPEN_BEFORE = [
+    ((0.05803, 0.07777, 0.04149, 0.07769, 0.04903, 0.05405, 0.07225), 8.46, 12.4, 0.833, 0.351),
+    ((0.03885, 0.04566, 0.07106, 0.0612, 0.03924, 0.05449, 0.05656), 6.96, 13.88, 0.936, 0.278),
+    ((0.07123, 0.07136, 0.05819, 0.04786, 0.03743, 0.05225, 0.05338), 6.27, 8.39, 1.999, 0.33),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("lengths", "hub", "beam", "cable", "clearance"), OPEN_BEFORE)
+def test_random_designs_print_closed_parts(lengths, hub, beam, cable, clearance):
+    """Three random designs whose printed parts were not closed as written (l0's mast
+    screw floors, l3's and l5's forks where a plate ends on the joint's axis)."""
+    import handarm
+    from handarm.carve import carve
+
+    design = handarm.ArmDesign(
+        link_lengths=lengths,
+        hub_radius=hub * 1e-3,
+        beam_width=beam * 1e-3,
+        cable_diameter=cable * 1e-3,
+        clearance=clearance * 1e-3,
+    )
+    for s in carve(design).printed:
+        for part in s.parts:
+            assert _stl_watertight(part.solid), part.name
+
+
+def test_a_mast_screw_floor_and_a_plate_ending_on_the_axle_print_closed():
+    """The second design of ``OPEN_BEFORE``: its l0 (a teardrop ending on the floor of a
+    blind mast-screw hole) and l3's fork (a teardrop's edge in the plane of a plate's end,
+    through joint 4's axle) were not closed as written."""
+    import handarm
+    from handarm.carve import carve
+
+    lengths, hub, beam, cable, clearance = OPEN_BEFORE[1]
+    design = handarm.ArmDesign(
+        link_lengths=lengths,
+        hub_radius=hub * 1e-3,
+        beam_width=beam * 1e-3,
+        cable_diameter=cable * 1e-3,
+        clearance=clearance * 1e-3,
+    )
+    result = carve(design)
+    for k, name in ((0, "l0"), (3, "l3 fork")):
+        part = next(p for p in split_link(result, k).parts if p.name == name)
+        assert _stl_watertight(part.solid), name

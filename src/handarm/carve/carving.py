@@ -164,12 +164,17 @@ def _blank_solid(blank: LinkBlank) -> Manifold:
     return solid - _holes(blank)
 
 
-def _cylinder(start, end, radius: float, segments: int = 32) -> Manifold:
-    """A cylinder of ``radius`` on the axis from ``start`` to ``end`` (same frame)."""
+def _cylinder(start, end, radius: float, segments: int = 32, turn: float = 0.0) -> Manifold:
+    """A cylinder of ``radius`` on the axis from ``start`` to ``end`` (same frame).
+
+    Its polygon's vertices sit at ``turn`` + k 360 / segments degrees about the axis.
+    """
     start, end = np.asarray(start, float), np.asarray(end, float)
     axis = end - start
     length = float(np.linalg.norm(axis))
     cyl = Manifold.cylinder(length, radius, radius, segments)
+    if turn:
+        cyl = cyl.rotate([0.0, 0.0, turn])
     # rotate z onto the axis, then place it
     z = axis / length
     ref = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

@@ -40,7 +40,14 @@ from collections.abc import Sequence
 import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
 
-from handarm.carve.carving import CarvedLink, CarveResult, _corridors, _cylinder, distal_sweep
+from handarm.carve.carving import (
+    CarvedLink,
+    CarveResult,
+    _corridors,
+    _cylinder,
+    _lengthened,
+    distal_sweep,
+)
 from handarm.carve.printing import bed_faces, pose_on_bed, print_orientation, support_area
 from handarm.carve.properties import to_trimesh, wall_samples
 from handarm.carve.sweep import _affine, frame_to_link
@@ -238,6 +245,10 @@ def _in_link(blank, hole: Hole) -> tuple[np.ndarray, np.ndarray]:
     return (m @ [*hole.start, 1.0])[:3], (m @ [*hole.end, 1.0])[:3]
 
 
+#: mm a teardrop runs past each end of its hole.
+TEARDROP_OVERRUN = 0.05
+
+
 def teardrops(axes, up) -> Manifold:
     """Teardrop roofs (to cut) of the round holes lying across ``up``.
 
@@ -264,7 +275,12 @@ def teardrops(axes, up) -> Manifold:
             continue
         r = radius / math.cos(math.pi / 32)  # holds the 32-sided hole as cut
         rise = (up - (up @ axis) * axis) * TEARDROP_TIP * r
-        verts = np.asarray(_cylinder(start, end, r, 48).to_mesh().vert_properties)[:, :3]
+        # a hair longer than the hole at both ends, its polygon turned half a side: an end
+        # face on the hole's own (a blind hole's floor), or a side edge in a plane through
+        # the axle (a fork plate's end), left edges of four faces in the written STL
+        start, end = _lengthened(start, end, TEARDROP_OVERRUN)
+        cyl = _cylinder(start, end, r, 48, turn=180.0 / 48)
+        verts = np.asarray(cyl.to_mesh().vert_properties)[:, :3]
         cuts.append(Manifold.hull_points(np.vstack([verts, start + rise, end + rise])))
     return Manifold.batch_boolean(cuts, OpType.Add) if cuts else Manifold()
 
