@@ -285,22 +285,26 @@ OPEN_BEFORE = [
 ]
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize(("lengths", "hub", "beam", "cable", "clearance"), OPEN_BEFORE)
-def test_random_designs_print_closed_parts(lengths, hub, beam, cable, clearance):
-    """Three random designs whose printed parts were not closed as written (l0's mast
-    screw floors, l3's and l5's forks where a plate ends on the joint's axis)."""
+def _open_before(lengths, hub, beam, cable, clearance):
     import handarm
-    from handarm.carve import carve
 
-    design = handarm.ArmDesign(
+    return handarm.ArmDesign(
         link_lengths=lengths,
         hub_radius=hub * 1e-3,
         beam_width=beam * 1e-3,
         cable_diameter=cable * 1e-3,
         clearance=clearance * 1e-3,
     )
-    for s in carve(design).printed:
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("lengths", "hub", "beam", "cable", "clearance"), OPEN_BEFORE)
+def test_random_designs_print_closed_parts(lengths, hub, beam, cable, clearance):
+    """Three random designs whose printed parts were not closed as written (l0's mast
+    screw floors, l3's and l5's forks where a plate ends on the joint's axis)."""
+    from handarm.carve import carve
+
+    for s in carve(_open_before(lengths, hub, beam, cable, clearance)).printed:
         for part in s.parts:
             assert _stl_watertight(part.solid), part.name
 
@@ -309,18 +313,9 @@ def test_a_mast_screw_floor_and_a_plate_ending_on_the_axle_print_closed():
     """The second design of ``OPEN_BEFORE``: its l0 (a teardrop ending on the floor of a
     blind mast-screw hole) and l3's fork (a teardrop's edge in the plane of a plate's end,
     through joint 4's axle) were not closed as written."""
-    import handarm
     from handarm.carve import carve
 
-    lengths, hub, beam, cable, clearance = OPEN_BEFORE[1]
-    design = handarm.ArmDesign(
-        link_lengths=lengths,
-        hub_radius=hub * 1e-3,
-        beam_width=beam * 1e-3,
-        cable_diameter=cable * 1e-3,
-        clearance=clearance * 1e-3,
-    )
-    result = carve(design)
+    result = carve(_open_before(*OPEN_BEFORE[1]))
     for k, name in ((0, "l0"), (3, "l3 fork")):
         part = next(p for p in split_link(result, k).parts if p.name == name)
         assert _stl_watertight(part.solid), name
