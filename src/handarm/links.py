@@ -690,12 +690,38 @@ def _twist_fin(design: ArmDesign) -> float:
 _TWIST_OVERLAP = 2.0
 
 
+def _side_reach(design: ArmDesign, k: int) -> float:
+    """How far (mm) link k's material reaches sideways from its plane's centre line.
+
+    The fork plates and cheeks reach the hub radius (l3's a fin further, ``_twist_fin``),
+    l0's exit plate 4 mm beyond the beam's side.
+    """
+    reach = design.hub_radius * MM
+    if k == 0:
+        reach = max(reach, design.beam_width * MM / 2 + 4.0)
+    if k == 3:
+        reach += _twist_fin(design)
+    return reach
+
+
+def _push(p: np.ndarray, out: np.ndarray, edge: float, radius: float) -> float:
+    """How far (mm) to push a corridor's axis point p outwards along ``out`` (unit).
+
+    Twice the corridor's radius, or further where that would leave the pushed copy's axis
+    inside the link's side (``edge`` from the centre line): the corridor then ends in a
+    round cap that stops short of the side, or grazes it, and leaves a sheet or a knife edge
+    of the plate there (0.1 mm on a 10.9 mm hub, where the copy was pushed a fixed distance).
+    """
+    return max(2.0 * radius, edge + _WALL_MARGIN - float(p @ out))
+
+
 def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
     radius = corridor_radius(design)
     dist = _dist_transform(design, k)
     y = np.array([0.0, 1.0, 0.0])
     out_end = y if dist is None else dist[:3, 1]
+    edge = _side_reach(design, k)
     out = []
     strands = strands_in_link(design, k)
     for side, segment in sorted({(st.side, st.segment) for st in strands}, reverse=True):
@@ -709,13 +735,17 @@ def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
                 # _TWIST_OVERLAP instead of meeting in a seam that can hold a sheet of a link
                 b = b + _TWIST_OVERLAP * (b - a) / np.linalg.norm(b - a)
             runs.append((tuple(a), tuple(b)))
-            # the same run pushed out beyond the hubs: the corridor opens sideways (on l3,
-            # in the plane of the joint the segment's end is aligned with: l3's twist opens
-            # towards joint 3's plane where it starts and joint 4's where it ends)
-            push = 2.0 * radius
+            # the same run pushed out beyond the link's side: the corridor opens sideways (on
+            # l3, in the plane of the joint the segment's end is aligned with: l3's twist
+            # opens towards joint 3's plane where it starts and joint 4's where it ends)
             out_a = out_end if (k == 3 and st.segment == 2) else y
             out_b = y if (k == 3 and st.segment == 0) else out_end
-            runs.append((tuple(a + side * push * out_a), tuple(b + side * push * out_b)))
+            runs.append(
+                (
+                    tuple(a + side * _push(a, side * out_a, edge, radius) * out_a),
+                    tuple(b + side * _push(b, side * out_b, edge, radius) * out_b),
+                )
+            )
         if runs:
             label = "+" if side > 0 else "-"
             name = f"cable corridor {label} in l{k}" + (f", part {segment + 1}" if k == 3 else "")

@@ -176,3 +176,54 @@ def test_a_face_at_45_degrees_needs_no_support_however_it_rounds(lean):
 
     assert support_area(tilted(45.0 + lean), [0.0, 0.0, -1.0]) == 0.0
     assert support_area(tilted(46.0), [0.0, 0.0, -1.0]) == pytest.approx(100.0, rel=1e-6)
+
+
+#: A legal design with 10.9 mm hubs (others lengths, beam, cable, clearance too): its cable
+#: corridors, pushed a fixed 2 radii outwards, stopped 0.1 mm short of the plates' sides.
+WIDE_HUBS = handarm.ArmDesign(
+    link_lengths=(0.06313, 0.07537, 0.06991, 0.04513, 0.04851, 0.07431, 0.03524),
+    hub_radius=0.010927,
+    beam_width=0.014377,
+    cable_diameter=0.0013615,
+    clearance=0.00026061,
+)
+
+
+@pytest.mark.parametrize("design", [handarm.ArmDesign(), WIDE_HUBS], ids=["paper", "wide hubs"])
+def test_cable_corridors_open_past_the_links_sides(design):
+    """Every corridor's pushed copy lies outside its link's side (the hub radius, l0's exit
+    plate, l3's fin), so the corridor cuts through the side and leaves no sheet there."""
+    from handarm.links import _dist_transform, _side_reach, link_blank
+
+    for k in range(6):
+        blank = link_blank(design, k)
+        dist = _dist_transform(design, k)
+        for ch in blank.channels:
+            if "slot" in ch.name:
+                continue  # slots open through a plate's face, not its side
+            for (a, b), (ca, cb) in zip(ch.runs[0::2], ch.runs[1::2], strict=True):
+                for p, c in ((a, ca), (b, cb)):
+                    p, c = np.asarray(p), np.asarray(c)
+                    out = (c - p) / np.linalg.norm(c - p)
+                    axes = [np.array([0.0, 1.0, 0.0])] + ([dist[:3, 1]] if dist is not None else [])
+                    side = max(abs(float(c @ ax)) for ax in axes if abs(float(out @ ax)) > 0.99)
+                    assert side >= _side_reach(design, k), (k, ch.name, side)
+
+
+@pytest.mark.slow
+def test_wide_hubs_keep_no_sheet_at_the_plates_sides():
+    """WIDE_HUBS carved: no wall under min_wall within 0.5 mm of l0's, l1's and l4's plate
+    sides (there were 0.095 mm sheets all along them)."""
+    from handarm.carve import carve
+    from handarm.links import _dist_transform
+
+    design = WIDE_HUBS
+    result = carve(design)
+    hub = design.hub_radius * 1e3
+    for k in (0, 1, 4):
+        pts, walls = result.links[k].walls
+        dist = _dist_transform(design, k)
+        y = pts[:, 1] if dist is None else (pts - dist[:3, 3]) @ dist[:3, 1]
+        near = np.abs(np.abs(y) - hub) < 0.5
+        assert near.any()
+        assert walls[near].min() >= design.min_wall * 1e3 - 1e-6, (k, walls[near].min())
