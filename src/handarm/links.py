@@ -21,6 +21,7 @@ turns the axle by 90 degrees; l6 ends in a tool mount.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -150,6 +151,9 @@ class JointGeometry:
     clearance: float
 
     lane: float  # the two strands of the driving cable wrap the tongue at z = +-lane
+    #: spacer (mm) between the tongue and the first idler, where a run leaving the idler
+    #: stack would otherwise cut into the lip over the tongue's groove (``_idler_lift``)
+    lift: float = 0.0
 
     @property
     def cheek(self) -> float:
@@ -166,7 +170,7 @@ class JointGeometry:
             raise ValueError(f"slot: expected 0..{self.idlers} at joint {self.joint}, got {slot}")
         if slot == 0:
             return side * self.lane
-        t = self.tongue_thickness / 2 + self.clearance / 2
+        t = self.tongue_thickness / 2 + self.clearance / 2 + self.lift
         return t + (slot - 0.5) * self.idler_width
 
 
@@ -212,10 +216,15 @@ def joint_geometry(design: ArmDesign, j: int) -> JointGeometry:
     """Sizes at joint j (1..6), in mm."""
     if not 1 <= j <= 6:
         raise ValueError(f"joint: expected 1..6, got {j}")
+    return _joint_geometry(design, j, _idler_lift(design, j))
+
+
+def _joint_geometry(design: ArmDesign, j: int, lift: float) -> JointGeometry:
+    """``joint_geometry`` with the idler stack lifted by ``lift`` (mm) off the tongue."""
     c = design.clearance * MM
     idlers = 6 - j
     tongue_t = design.beam_thickness * MM
-    gap = tongue_t + idlers * design.idler_width * MM + 2 * c
+    gap = tongue_t + idlers * design.idler_width * MM + 2 * c + lift
     pulley = design.joint_pulley_radii[j - 1] * MM
     tongue_r = max(design.hub_radius * MM, pulley + design.cable_diameter * MM)
     return JointGeometry(
@@ -233,7 +242,100 @@ def joint_geometry(design: ArmDesign, j: int) -> JointGeometry:
         idler_width=design.idler_width * MM,
         clearance=c,
         lane=(design.cable_diameter * MM + c) / 2,
+        lift=lift,
     )
+
+
+def _groove_roof(design: ArmDesign, g: JointGeometry) -> tuple[float, float, float, float]:
+    """(bottom, off, top, rim) of the groove round joint g's tongue (mm, see ``_groove``).
+
+    The groove's bottom radius; its roof, the line z = r + off at 45 degrees; ``top``, the
+    highest the roof may reach (``min_wall`` under the tongue's face); ``rim``, where the
+    roof is capped (``top``, or inf when the line stays under it out to the rim).
+    """
+    cable_r = design.cable_diameter * MM / 2
+    rc = cable_r + g.clearance / 2  # the cable's clearance circle
+    bottom = g.groove_radius - cable_r
+    # a micrometre under min_wall from the face: exactly min_wall measured a hair under it
+    top = g.tongue_thickness / 2 - design.min_wall * MM - 1e-3
+    off = g.lane - g.groove_radius + math.sqrt(2.0) * rc
+    rim = top if g.tongue_radius + off > top else math.inf
+    return bottom, off, top, rim
+
+
+def _lip_walls(x, y, d, z, radius, bottom, off, rim) -> np.ndarray:
+    """Walls (mm) a corridor's underside leaves over a groove's roof, as walls are measured.
+
+    Points (x, y, z) on the underside of a corridor running along x (``d``: their offset
+    across it, ``radius``: the corridor's) against the roof of ``_groove_roof``: the wall
+    is the gap between faces within ``WALL_ANGLE_DEG`` of parallel (see
+    ``handarm.carve.properties.wall_samples``): the underside's bottom over the roof's flat
+    cap, and the underside's flank over the 45-degree roof where they face each other.
+    inf where no such pair of faces meets.
+    """
+    r = np.hypot(x, y)
+    out = np.full(np.broadcast(x, y, d, z).shape, np.inf)
+    up = np.sqrt(np.maximum(radius**2 - d**2, 0.0))  # the underside's normal, vertical part
+    parallel = math.cos(math.radians(WALL_ANGLE_DEG))
+    if math.isfinite(rim):
+        on_cap = (r >= rim - off) & (up >= parallel * radius)
+        out = np.where(on_cap, z - rim, out)
+    # the flank's normal (0, -d, up) / radius against the roof's (x, y, -r) / (r sqrt 2)
+    facing = (d * y / np.maximum(r, 1e-12) + up) / (radius * math.sqrt(2.0)) >= parallel
+    on_line = (r >= bottom) & ((r < rim - off) | ~np.isfinite(rim)) & facing
+    return np.where(on_line, np.minimum(out, (z - r - off) / math.sqrt(2.0)), out)
+
+
+@functools.lru_cache(maxsize=256)
+def _idler_lift(design: ArmDesign, j: int) -> float:
+    """How far (mm) joint j's idler stack is lifted off its tongue by a spacer.
+
+    The runs of link j leave the idlers above its tongue and head for joint j + 1; the
+    steepest (cable j + 1, bound for the next tongue's lanes) passes low over the tongue's
+    rim, and its corridor (the cable's radius and the clearance, as cut) cut into the lip
+    left over the groove's roof: 0.6-0.9 mm with cables of 1.6-2 mm. The stack is lifted,
+    where it must be, until every point of those corridors over the tongue keeps
+    ``min_wall`` (and a margin) from the roof. Zero for the paper's arm.
+    """
+    if not 1 <= j <= 5:
+        return 0.0
+    g = _joint_geometry(design, j, 0.0)
+    nxt = _joint_geometry(design, j + 1, 0.0)
+    bottom, off, _, rim = _groove_roof(design, g)
+    radius = corridor_radius(design) / math.cos(math.pi / 24)  # as the corridor is cut
+    length = design.link_lengths[j] * MM
+    wall = design.min_wall * MM + _WALL_MARGIN
+    # across the corridor, and along it: a grid over the tongue plus, for each offset, where
+    # the run crosses the roof's knee and the rim (along a line of the corridor the wall
+    # only thins outwards, so those are its thinnest points; the cap's ring can be a
+    # twentieth of a millimetre wide)
+    d = np.linspace(-radius, radius, 17) * (1.0 - 1e-9)
+    need = 0.0
+    for cable in range(j + 1, 7):
+        for side in (1, -1):
+            z0 = g.slot_z(cable - j, side)
+            z1 = nxt.slot_z(cable - j - 1, side)
+            slope = 0.0 if j == 3 else (z1 - z0) / length  # l3 leaves joint 3 level
+            y = side * g.groove_radius + d
+            edges = [rim - off - 1e-9, g.tongue_radius * (1.0 - 1e-12)]
+            x = [np.sqrt(np.maximum(e * e - y * y, 0.0)) for e in edges if math.isfinite(e)]
+            x = np.vstack(x + [np.broadcast_to(v, y.shape) for v in np.linspace(0, 12.0, 25)])
+            x = np.minimum(x, length)
+            # the corridor's underside: flat on its outer side (the hull with the copy
+            # pushed outwards), the run's cylinder on its inner side
+            outer = side * d >= 0.0
+            z = z0 + slope * x - np.where(outer, radius, np.sqrt(radius**2 - d**2))
+            face = np.where(outer, 0.0, d)  # a flat underside faces straight down
+            r = np.hypot(x, y)
+            over = (r >= bottom) & (r <= g.tongue_radius) & (z < g.tongue_thickness / 2)
+            if not over.any():
+                continue
+            short = wall - _lip_walls(x, y, face, z, radius, bottom, off, rim)
+            # lifting the stack by h lifts the run there by h (1 - x / length)
+            scale = 1.0 - (0.0 if j == 3 else x / length)
+            short = np.where(over & (short > 0.0), short / scale, 0.0)
+            need = max(need, float(short.max()))
+    return math.ceil(need * 100.0) / 100.0 if need > 0.0 else 0.0
 
 
 def _fork(
@@ -271,6 +373,10 @@ def _fork(
         ),
     ]
 
+
+#: Two faces closer to parallel than this (degrees) bound a wall; a wider corner is an edge
+#: (``handarm.carve.properties.wall_samples`` measures walls so; the lift reads it too).
+WALL_ANGLE_DEG = 30.0
 
 #: Margin (mm) kept beyond ``min_wall`` where a plate is thickened: the corridor is cut as a
 #: polygon round its circle, and the wall is measured on the written mesh.
@@ -486,13 +592,10 @@ def _groove(design: ArmDesign, g: JointGeometry) -> Groove:
     tunnel, the roof is a 45-degree gable from that line down to the tunnel's outer wall,
     ``min_wall`` under the beam's face at most.
     """
-    cable_r = design.cable_diameter * MM / 2
-    rc = cable_r + g.clearance / 2  # the cable's clearance circle
+    rc = design.cable_diameter * MM / 2 + g.clearance / 2  # the cable's clearance circle
     half = g.lane + rc
-    bottom = g.groove_radius - cable_r
     outer = g.tongue_radius + 1.0
-    top = g.tongue_thickness / 2 - design.min_wall * MM
-    off = g.lane - g.groove_radius + math.sqrt(2.0) * rc
+    bottom, off, top, rim = _groove_roof(design, g)
 
     def outline(ridge: list[tuple[float, float]], cap: float) -> np.ndarray:
         # along the floor, up the outer wall, over the ridge, back down the roof's line
@@ -503,7 +606,6 @@ def _groove(design: ArmDesign, g: JointGeometry) -> Groove:
         pts.append((bottom, min(bottom + off, cap)))
         return np.array(pts, dtype=float)
 
-    rim = top if g.tongue_radius + off > top else math.inf
     ridge_r = (half + outer - off) / 2  # the roof's line meets the gable's outer flank
     if ridge_r + off <= top:
         gable = [(outer, half), (ridge_r, ridge_r + off)]

@@ -227,3 +227,50 @@ def test_wide_hubs_keep_no_sheet_at_the_plates_sides():
         near = np.abs(np.abs(y) - hub) < 0.5
         assert near.any()
         assert walls[near].min() >= design.min_wall * 1e3 - 1e-6, (k, walls[near].min())
+
+
+#: A legal design with 1.59 mm cables on 6.3 mm hubs: the steepest run leaving each idler
+#: stack cut into the lip over its own tongue's groove (0.88 mm left on l1).
+THICK_CABLES = handarm.ArmDesign(
+    link_lengths=(0.046773, 0.048432, 0.07164, 0.039136, 0.062005, 0.067785, 0.043456),
+    hub_radius=0.0063309,
+    beam_width=0.0101998,
+    cable_diameter=0.0015889,
+    clearance=0.00031245,
+)
+
+
+def test_idler_stacks_lift_only_where_a_run_would_thin_a_tongue_lip():
+    """The paper's arm and the other test design keep their stacks on the tongue (their
+    geometry is unchanged); thick cables lift some, never joint 3 (l3 leaves it level) nor
+    joint 6 (no idlers); a lifted stack widens its fork's gap by the spacer and moves every
+    idler slot by it."""
+    from handarm.links import _joint_geometry, joint_geometry
+
+    other = handarm.ArmDesign(link_lengths=(0.045, 0.055, 0.05, 0.06, 0.045, 0.05, 0.055))
+    for design in (handarm.ArmDesign(), other):
+        assert all(joint_geometry(design, j).lift == 0.0 for j in range(1, 7))
+    lifts = [joint_geometry(THICK_CABLES, j).lift for j in range(1, 7)]
+    assert lifts[0] > 0.3 and lifts[2] == 0.0 and lifts[5] == 0.0
+    for j in range(1, 6):
+        g, flat = joint_geometry(THICK_CABLES, j), _joint_geometry(THICK_CABLES, j, 0.0)
+        assert g.gap - flat.gap == pytest.approx(g.lift)
+        assert g.slot_z(1) - flat.slot_z(1) == pytest.approx(g.lift)
+        assert g.slot_z(0, -1) == flat.slot_z(0, -1)  # the tongue's lanes stay
+
+
+@pytest.mark.slow
+def test_thick_cables_leave_every_tongue_lip_min_wall():
+    """THICK_CABLES carved: over each tongue (within its radius of the link's proximal joint,
+    above the middle) no wall is under min_wall; before the lift l1 kept 0.88 mm there."""
+    from handarm.carve import carve
+    from handarm.links import joint_geometry
+
+    design = THICK_CABLES
+    result = carve(design)
+    for k in range(1, 7):
+        g = joint_geometry(design, k)
+        pts, walls = result.links[k].walls
+        over = (np.hypot(pts[:, 0], pts[:, 1]) < g.tongue_radius + 0.5) & (pts[:, 2] > 0.0)
+        assert over.any()
+        assert walls[over].min() >= design.min_wall * 1e3 - 1e-6, (k, walls[over].min())

@@ -155,6 +155,14 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
                 f"{d.joint_pulley_radii[j - 1] * MM:g} mm, width {d.idler_width * MM:g} mm",
                 note="aluminium in the paper",
             )
+        if g.lift:
+            add(
+                f"spacer joint {j}",
+                "bought",
+                1,
+                f"washer {d.axle_diameter * MM:g} mm bore, {g.lift:.2f} mm thick",
+                note="between the tongue and the first idler",
+            )
     for split in carving.printed:
         for (kind, size), group in split.fastener_groups.items():
             add(
@@ -407,6 +415,8 @@ def _write_assembly(h, carving, meshes, rows, out: Path) -> list[Path]:
             steps.append((f"l{k}: join its parts", scene, _join_text(split)))
         g = joint_geometry(d, k)
         idlers = f", with {g.idlers} idler(s) on the axle beside the tongue" if g.idlers else ""
+        if g.lift:
+            idlers += f" (a {g.lift:.2f} mm spacer between the tongue and the first idler)"
         steps.append(
             (
                 f"l{k} at joint {k}",

@@ -11,6 +11,7 @@ import trimesh
 from manifold3d import Manifold
 
 from handarm.carve.carving import CarvedLink
+from handarm.links import WALL_ANGLE_DEG
 
 __all__ = ["to_trimesh", "link_properties", "min_cross_section", "wall_samples", "wall_thickness"]
 
@@ -58,10 +59,6 @@ def link_properties(link: CarvedLink, density: float) -> dict:
         "watertight": bool(mesh.is_volume),
         "bodies": len(link.solid.decompose()),
     }
-
-
-#: Two faces closer to parallel than this (degrees) bound a wall; a wider corner is an edge.
-WALL_ANGLE_DEG = 30.0
 
 
 def wall_samples(
