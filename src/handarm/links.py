@@ -226,7 +226,10 @@ def _joint_geometry(design: ArmDesign, j: int, lift: float) -> JointGeometry:
     tongue_t = design.beam_thickness * MM
     gap = tongue_t + idlers * design.idler_width * MM + 2 * c + lift
     pulley = design.joint_pulley_radii[j - 1] * MM
-    tongue_r = max(design.hub_radius * MM, pulley + design.cable_diameter * MM)
+    # the rim keeps min_wall round the anchor holes (thin cables put the rim close by)
+    at, hole_r = _anchor_place(design, pulley)
+    anchor_rim = at + hole_r + design.min_wall * MM + _WALL_MARGIN
+    tongue_r = max(design.hub_radius * MM, pulley + design.cable_diameter * MM, anchor_rim)
     return JointGeometry(
         joint=j,
         idlers=idlers,
@@ -620,11 +623,19 @@ def _groove(design: ArmDesign, g: JointGeometry) -> Groove:
     )
 
 
+def _anchor_place(design: ArmDesign, pulley: float) -> tuple[float, float]:
+    """(radius of its axis, its radius) of an anchor hole (mm) in a groove of ``pulley`` mm.
+
+    The hole breaks into the groove's bottom (the pulley radius less the cable's radius).
+    """
+    cable_r = design.cable_diameter * MM / 2
+    hole_r = cable_r + design.clearance * MM / 2
+    return pulley - cable_r - 0.6 * hole_r, hole_r
+
+
 def _anchors(design: ArmDesign, g: JointGeometry) -> list[Hole]:
     """An anchor hole per strand, from its lane in the groove out through the tongue's face."""
-    cable_r = design.cable_diameter * MM / 2
-    hole_r = cable_r + g.clearance / 2
-    at = g.groove_radius - cable_r - 0.6 * hole_r  # breaks into the groove's bottom
+    at, hole_r = _anchor_place(design, g.groove_radius)
     face = g.tongue_thickness / 2 + 1.0
     holes = []
     for side, angle in zip((1, -1), anchor_angles(design, g.joint), strict=True):

@@ -274,3 +274,43 @@ def test_thick_cables_leave_every_tongue_lip_min_wall():
         over = (np.hypot(pts[:, 0], pts[:, 1]) < g.tongue_radius + 0.5) & (pts[:, 2] > 0.0)
         assert over.any()
         assert walls[over].min() >= design.min_wall * 1e3 - 1e-6, (k, walls[over].min())
+
+
+def test_a_tongue_keeps_min_wall_round_its_anchor_holes():
+    """A tongue's rim keeps min_wall (and a margin) outside its anchor holes: with 0.83 mm
+    cables the rim, the pulley radius plus the cable's diameter out, kept 1.02 mm there on
+    every tongue. Measured on the blanks: the holes' outer edges against the tongues."""
+    from handarm.links import _anchor_place, joint_geometry
+
+    thin = handarm.ArmDesign(cable_diameter=0.00083, clearance=0.00035, hub_radius=0.0085)
+    for design in (handarm.ArmDesign(), thin):
+        for j in range(1, 7):
+            g = joint_geometry(design, j)
+            at, hole = _anchor_place(design, g.groove_radius)
+            blank = link_blank(design, j)
+            anchors = [h for h in blank.holes if h.name.startswith("cable anchor")]
+            assert len(anchors) == 2
+            for h in anchors:
+                assert math.hypot(*h.start[:2]) == pytest.approx(at)
+                assert g.tongue_radius - (at + hole) >= design.min_wall * 1e3
+    assert joint_geometry(thin, 1).tongue_radius > 8.0 + 0.83  # grown past the old rim
+
+
+@pytest.mark.slow
+def test_thin_cables_keep_min_wall_round_the_anchors():
+    """0.83 mm cables, carved: no wall under min_wall within 1.5 mm of an anchor hole's axis
+    (every tongue kept 1.02 mm between its anchors and its rim)."""
+    from handarm.carve import carve
+    from handarm.links import _anchor_place, anchor_angles, joint_geometry
+
+    design = handarm.ArmDesign(cable_diameter=0.00083, clearance=0.00035, hub_radius=0.0085)
+    result = carve(design)
+    for k in range(1, 7):
+        at, hole = _anchor_place(design, joint_geometry(design, k).groove_radius)
+        pts, walls = result.links[k].walls
+        near = np.zeros(len(pts), bool)
+        for angle in anchor_angles(design, k):
+            axis = at * np.array([math.cos(angle), math.sin(angle)])
+            near |= np.hypot(*(pts[:, :2] - axis).T) < hole + 1.5
+        assert near.any()
+        assert walls[near].min() >= design.min_wall * 1e3 - 1e-6, (k, walls[near].min())
