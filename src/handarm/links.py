@@ -784,6 +784,7 @@ def cable_runs(design: ArmDesign, k: int) -> list[tuple[np.ndarray, np.ndarray]]
     return out
 
 
+@functools.lru_cache(maxsize=64)
 def _twist_fin(design: ArmDesign) -> float:
     """How far (mm) l3's fork plates and bridge reach below the hub radius, along joint 3.
 
@@ -828,6 +829,7 @@ def _push(p: np.ndarray, out: np.ndarray, edge: float, radius: float) -> float:
     return max(2.0 * radius, edge + _WALL_MARGIN - float(p @ out))
 
 
+@functools.lru_cache(maxsize=256)
 def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
     radius = corridor_radius(design)
