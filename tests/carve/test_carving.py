@@ -308,3 +308,38 @@ def test_a_joint_stops_where_carving_narrowed_it():
         for side in (0, 1):
             binds = r.achieved[side] == r.carved[side]
             assert binds == r.stopped_by[side].startswith("carving"), r.stopped_by
+
+
+def test_a_skin_one_link_has_held_still_does_not_free_the_other_links_range():
+    """Joint 2 of a 60/70/45/55/50/40/50 mm arm is narrowed because l2's fork would leave a
+    skin on l1. Give l2 a 0.4 mm skin that joint 2 held still already leaves (cut as its
+    distal neighbour held still would cut it): l2 is then judged against that skin, but l1
+    still against min_wall, so joint 2 stays narrowed and l1 keeps its walls. (Carving used
+    to judge both links on health alone as soon as either kept a skin held still, and
+    carved the whole range.)"""
+    from handarm.carve import carving
+    from handarm.carve.sweep import _affine, frame_to_link
+
+    design = handarm.ArmDesign(link_lengths=(0.06, 0.07, 0.045, 0.055, 0.05, 0.04, 0.05))
+    blanks = [link_blank(design, k) for k in range(7)]
+    solids = [carving._blank_solid(b) for b in blanks]
+    floors = [carving._wall_floor(design, s) for s in solids]
+    step, grow = math.radians(1.0), design.clearance * 1e3 + 2 * carving._JITTER_MM
+    # a pocket under the top of l2's + fork plate, 0.4 mm below its top face
+    plate = next(p for p in blanks[2].parts if p.name == "fork plate + at joint 3")
+    pocket = Manifold.cube([6.0, 30.0, plate.z1 - plate.z0]).translate(
+        [-14.0, -15.0, plate.z0 - 0.4 - 1e-3]
+    )
+    skin = pocket.transform(_affine(frame_to_link(blanks[2], "dist")))
+    lo, hi = design.joint_limits[1]
+    mw = design.min_wall * 1e3
+    assert carving._thinnest(solids[2] - skin) < 0.5 < mw
+    ranges = []
+    for rest in (None, skin):
+        got = carving._largest_healthy_range(
+            blanks, solids, 2, lo, hi, step, grow, (None, rest), design, floors[1:3]
+        )
+        ranges.append(got[:2])
+        assert lo < got[0] and got[1] < hi  # narrowed
+        assert carving._thinnest(solids[1] - got[2]) >= floors[1]  # l1 keeps min_wall
+    assert ranges[1] == pytest.approx(ranges[0], abs=math.radians(0.5))

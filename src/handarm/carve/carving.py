@@ -346,10 +346,16 @@ def carve(
     carve_limits = []
     cut_prox: list[Manifold | None] = [None] * 7  # cut made by the joint at the link's prox end
     cut_dist: list[Manifold | None] = [None] * 7
+    # what each link loses to its distal neighbour held still: the least joint k + 1 takes
+    rest: list[Manifold | None] = [
+        _sweep_into_proximal(blanks, solids, k + 1, 0.0, 0.0, step, grow) if k < 6 else None
+        for k in range(7)
+    ]
     for j in range(1, 7):
         lo, hi = design.joint_limits[j - 1]
+        around = (cut_prox[j - 1], rest[j])
         lo, hi, sp, sd = _largest_healthy_range(
-            blanks, solids, j, lo, hi, step, grow, cut_prox[j - 1], design, floors[j - 1 : j + 1]
+            blanks, solids, j, lo, hi, step, grow, around, design, floors[j - 1 : j + 1]
         )
         carve_limits.append((lo, hi))
         cut_dist[j - 1], cut_prox[j] = sp, sd
@@ -404,19 +410,23 @@ def carve(
     return CarveResult(design, tuple(links), tuple(joints), resolution_deg)
 
 
-def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, design, walls):
+def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, around, design, walls):
     """Carve joint j's range if both links survive it, else the largest scaled range that does.
 
     A link survives when it stays healthy (``_healthy``) and keeps no wall thinner than
     ``min_wall`` (or than its blank's own thinnest wall, if thinner): a range whose sweep
-    would leave a skin is not achievable (``walls``: the two links' ``_wall_floor``). The
-    proximal link is judged with ``prev_cut`` (what joint j-1 already took from it) as
-    well, so a link survives its combined cuts.
+    would leave a skin is not achievable (``walls``: the two links' ``_wall_floor``).
+    ``around``: (what joint j-1 already took from the proximal link, what the distal
+    link's own distal neighbour takes held still), each or None: each link is judged with
+    its other cut as well (the distal one with the least it will lose), so a link survives
+    its combined cuts.
     Raises ValueError naming the joint, the link and the design field when not even the
     joint held still leaves healthy links.
     """
+    prev_cut, next_rest = around
     prox = solids[j - 1] if prev_cut is None else solids[j - 1] - prev_cut
-    carved = (lambda sp: prox - sp, lambda sd: solids[j] - sd)
+    dist = solids[j] if next_rest is None else solids[j] - next_rest
+    carved = (lambda sp: prox - sp, lambda sd: dist - sd)
 
     def cuts(f):
         sp = _sweep_into_proximal(blanks, solids, j, lo * f, hi * f, step, grow)
@@ -426,35 +436,39 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, prev_cut, desi
     def healthy(sp, sd):
         return _healthy(blanks[j - 1], carved[0](sp)) and _healthy(blanks[j], carved[1](sd))
 
-    def walls_kept(sp, sd):
+    def walls_kept(sp, sd, floors):
         return all(
-            _thinnest(c(cut)) >= w for c, cut, w in zip(carved, (sp, sd), walls, strict=True)
+            _thinnest(c(cut)) >= w for c, cut, w in zip(carved, (sp, sd), floors, strict=True)
         )
 
-    def printable(sp, sd):
-        return healthy(sp, sd) and walls_kept(sp, sd)
-
     sp, sd = cuts(1.0)
-    whole = healthy(sp, sd)
-    if whole and walls_kept(sp, sd):
+    if healthy(sp, sd) and walls_kept(sp, sd, walls):
         return lo, hi, sp, sd
-    good, bad = 0.0, 1.0
     best = cuts(0.0)
-    # a wall the neighbour leaves thin even with the joint held still is the blank's shape,
-    # not the range's: the range is then judged on health alone, and the link's report
-    # says where its walls are thin
-    ok = printable if printable(*best) else healthy
-    if ok is healthy and whole:
-        return lo, hi, sp, sd
     if not healthy(*best):
         k = 0 if not _healthy(blanks[j - 1], carved[0](best[0])) else 1
         blank, solid = blanks[j - 1 + k], carved[k](best[k])
         split = solid.is_empty() or len(solid.decompose()) != 1
+        both = k == 1 and next_rest is not None and _healthy(blank, solids[j] - best[1])
         raise ValueError(
-            f"{_culprit(design, split)}: joint {j} leaves link {blank.name} "
+            f"{_culprit(design, split)}: joint{f's {j} and {j + 1}' if both else f' {j}'}"
+            f" leave{'' if both else 's'} link {blank.name} "
             f"{'in pieces' if split else 'without its bore wall'} even held still; "
             "no printable range exists"
         )
+    # a wall the neighbour leaves thin even with the joint held still is the blanks' shape,
+    # not the range's: that link's range is judged on keeping that wall (the link's report
+    # says where its walls are thin), the other's on min_wall
+    floors = [
+        min(w, _thinnest(c(cut)) - _WALL_TOL) for c, cut, w in zip(carved, best, walls, strict=True)
+    ]
+
+    def ok(sp, sd):
+        return healthy(sp, sd) and walls_kept(sp, sd, floors)
+
+    if ok(sp, sd):
+        return lo, hi, sp, sd
+    good, bad = 0.0, 1.0
     for _ in range(10):
         mid = 0.5 * (good + bad)
         trial = cuts(mid)
