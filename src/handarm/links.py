@@ -829,6 +829,15 @@ def _push(p: np.ndarray, out: np.ndarray, edge: float, radius: float) -> float:
     return max(2.0 * radius, edge + _WALL_MARGIN - float(p @ out))
 
 
+def _under_side(p: np.ndarray, out: np.ndarray, edge: float, radius: float, wall: float) -> bool:
+    """Whether a corridor round axis point p stops short of the link's side by under ``wall``.
+
+    The side is ``edge`` along ``out``; grazing it counts, opening through it does not.
+    """
+    top = float(p @ out) + radius
+    return edge - wall - _WALL_MARGIN < top < edge + _WALL_MARGIN
+
+
 @functools.lru_cache(maxsize=256)
 def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     """Per side, the corridor of link k's cable runs, widened outwards to the link's edge."""
@@ -855,16 +864,33 @@ def _corridors(design: ArmDesign, k: int) -> tuple[Channel, ...]:
             # opens towards joint 3's plane where it starts and joint 4's where it ends)
             out_a = out_end if (k == 3 and st.segment == 2) else y
             out_b = y if (k == 3 and st.segment == 0) else out_end
-            runs.append(
-                (
-                    tuple(a + side * _push(a, side * out_a, edge, radius) * out_a),
-                    tuple(b + side * _push(b, side * out_b, edge, radius) * out_b),
-                )
+            pushed = (
+                a + side * _push(a, side * out_a, edge, radius) * out_a,
+                b + side * _push(b, side * out_b, edge, radius) * out_b,
             )
+            runs.append(tuple(map(tuple, pushed)))
+            if k == 3:
+                # joint 4's plates end at the hub radius across joint 3's plane too (their
+                # top edge): an end pushed out in joint 3's plane but within min_wall under
+                # that edge is pushed through the edge as well, else the corridor leaves a
+                # floor under min_wall there, or (the twist opening in joint 3's plane at
+                # its start and through the edge at its end) its hull rises through the
+                # edge at a slant and leaves a sheet of it. (Across joint 4's plane the
+                # link reaches further than the hub radius: the fork's plates.)
+                alt, both = list(pushed), list(pushed)
+                for i, (p, out_p) in enumerate(((a, out_a), (b, out_b))):
+                    if out_p is not y:
+                        continue
+                    other = out_end if p @ out_end >= 0.0 else -out_end  # the edge it is near
+                    if _under_side(p, other, edge, radius, design.min_wall * MM):
+                        alt[i] = p + _push(p, other, edge, radius) * other
+                        both[i] = pushed[i] + _push(p, other, edge, radius) * other
+                runs.append(tuple(map(tuple, alt)))
+                runs.append(tuple(map(tuple, both)))
         if runs:
             label = "+" if side > 0 else "-"
             name = f"cable corridor {label} in l{k}" + (f", part {segment + 1}" if k == 3 else "")
-            out.append(Channel(name, tuple(runs), radius, 2))
+            out.append(Channel(name, tuple(runs), radius, 4 if k == 3 else 2))
     return tuple(out)
 
 
