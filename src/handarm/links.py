@@ -115,9 +115,10 @@ class Strand:
 class Channel:
     """A cable corridor cut through a link: the hull of consecutive cylinders, ``radius`` (mm).
 
-    ``runs`` are (start, end) axis pairs in the link frame, in pairs (a cable's run, the
-    same run pushed out to the link's edge), cable after cable; each pair of pairs is hulled
-    with the next (no sliver walls between cables, the corridor opens sideways).
+    ``runs`` are (start, end) axis pairs in the link frame, ``per_cable`` per cable (a
+    cable's run, the same run pushed out to the link's edge, on l3 two more copies pushed
+    through joint 4's plate edge), cable after cable; each cable's runs are hulled with the
+    next cable's (no sliver walls between cables, the corridor opens sideways).
     """
 
     name: str
@@ -477,8 +478,10 @@ def _plate_slots(design: ArmDesign, k: int) -> tuple[Channel, ...]:
     top = g.gap_hi + g.cheek + _plate_extra(design, k, g, length, dist)[0]
     x0 = dist[0, 3] - length  # where the plate starts, link frame
     slots = []
-    runs = [run for ch in _corridors(design, k) for run in ch.runs]
-    for (a, b), (ca, cb) in zip(runs[0::2], runs[1::2], strict=True):  # run, copy
+    chs = _corridors(design, k)
+    runs = [run for ch in chs for run in ch.runs[0 :: ch.per_cable]]
+    copies = [run for ch in chs for run in ch.runs[1 :: ch.per_cable]]
+    for (a, b), (ca, cb) in zip(runs, copies, strict=True):  # run, copy
         a, b, ca, cb = (np.array(v, dtype=float) for v in (a, b, ca, cb))
         d = b - a
         if d[0] <= 1e-12 or b[0] < x0:

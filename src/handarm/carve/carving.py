@@ -348,7 +348,7 @@ def carve(
     cut_dist: list[Manifold | None] = [None] * 7
     # what each link loses to its distal neighbour held still: the least joint k + 1 takes
     rest: list[Manifold | None] = [
-        _sweep_into_proximal(blanks, solids, k + 1, 0.0, 0.0, step, grow) if k < 6 else None
+        _sweep_into_proximal(blanks, solids, k + 1, 0.0, 0.0, step, grow) if 1 <= k < 6 else None
         for k in range(7)
     ]
     for j in range(1, 7):
@@ -415,7 +415,9 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, around, design
 
     A link survives when it stays healthy (``_healthy``) and keeps no wall thinner than
     ``min_wall`` (or than its blank's own thinnest wall, if thinner): a range whose sweep
-    would leave a skin is not achievable (``walls``: the two links' ``_wall_floor``).
+    would leave a skin is not achievable (``walls``: the two links' ``_wall_floor``). Where
+    a link keeps a thinner wall than that with the joint held still, it is judged on
+    keeping that wall instead (the other link still on its own floor).
     ``around``: (what joint j-1 already took from the proximal link, what the distal
     link's own distal neighbour takes held still), each or None: each link is judged with
     its other cut as well (the distal one with the least it will lose), so a link survives
@@ -459,14 +461,13 @@ def _largest_healthy_range(blanks, solids, j, lo, hi, step, grow, around, design
     # a wall the neighbour leaves thin even with the joint held still is the blanks' shape,
     # not the range's: that link's range is judged on keeping that wall (the link's report
     # says where its walls are thin), the other's on min_wall
-    floors = [
-        min(w, _thinnest(c(cut)) - _WALL_TOL) for c, cut, w in zip(carved, best, walls, strict=True)
-    ]
+    held = [_thinnest(c(cut)) for c, cut in zip(carved, best, strict=True)]
+    floors = [w if t >= w else t - _WALL_TOL for t, w in zip(held, walls, strict=True)]
 
     def ok(sp, sd):
         return healthy(sp, sd) and walls_kept(sp, sd, floors)
 
-    if ok(sp, sd):
+    if floors != walls and ok(sp, sd):
         return lo, hi, sp, sd
     good, bad = 0.0, 1.0
     for _ in range(10):
