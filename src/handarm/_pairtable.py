@@ -74,10 +74,11 @@ def cell_status(q, a, pieces, ci, cj, di, dj, pi, pf, groups, rows, mask, c, sc)
 
 @nb.njit(**JIT)
 def build_table(
-    ji, x0, x1, y0, y1, a, pieces, ci, cj, pi, pf, groups, rows, g0, g1, c, cell, max_nodes
+    ji, x0, x1, y0, y1, a, pieces, ci, cj, pi, pf, groups, rows, mask, c, cell, max_nodes
 ):
     """The quadtree of one pair over joints (ji, ji + 1) in [x0, x1] x [y0, y1] (rad).
 
+    ``mask``: the pair's groups, bit g for group g.
     Cells are halved down to ``cell`` (rad) on each side; a MIXED cell that size is a leaf.
     Returns the nodes (see module doc), or an array of one MIXED leaf if ``max_nodes`` would
     be exceeded (the table then proves nothing and costs nothing).
@@ -87,9 +88,6 @@ def build_table(
     todo_n = np.empty(max_nodes, np.int64)
     todo_b = np.empty((max_nodes, 4))
     sc = scratch(pi.shape[0])
-    mask = 0
-    for g in range(g0, g1):
-        mask |= 1 << g
     q = np.zeros(6)
     n_nodes = 1
     head, tail = 0, 1

@@ -580,18 +580,18 @@ def pair_tables(design: ArmDesign) -> tuple:
 
     env = envelopes(design)
     a = design.lengths
+    masks = _table_masks(design)
     parts, offsets, domains = [], [], []
     total = 0
-    for k, lp in enumerate(TABLE_PAIRS):
+    for k in range(len(TABLE_PAIRS)):
         pieces, ci, cj = _table_coefficients(env, design, k)
-        g0, g1 = env.lp_groups[lp]
         dom = np.array(
             [design.lower[k] - 1e-9, design.upper[k] + 1e-9,
              design.lower[k + 1] - 1e-9, design.upper[k + 1] + 1e-9]
         )  # fmt: skip
         nodes = _pairtable.build_table(
             k, *dom, a, pieces, ci, cj, env.pi, env.pf, env.groups, env.rows,
-            int(g0), int(g1), env.clearance, TABLE_CELL, _TABLE_NODES,
+            int(masks[k]), env.clearance, TABLE_CELL, _TABLE_NODES,
         )  # fmt: skip
         parts.append(nodes)
         offsets.append(total)

@@ -616,16 +616,8 @@ def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
     tool_pose(np.ascontiguousarray(q, dtype=float), design.lengths, pose)
     p_reached, e_reached = pose[:3].copy(), pose[3:6].copy()
     psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
-    # the branch and u as ``exact.branch_of`` gives them
-    dx, dy = math.cos(q[0] + q[1] + q[2]), math.sin(q[0] + q[1] + q[2])
-    u = (pose[6] - pose[0]) * dx + (pose[7] - pose[1]) * dy
-    branch = np.array(
-        [
-            1 if dx * e_reached[0] + dy * e_reached[1] >= 0.0 else -1,
-            1 if q[1] >= 0.0 else -1,
-            1 if q[4] >= 0.0 else -1,
-        ]
-    )
+    branch, u = S.branch_from_pose(q, p_reached, e_reached, pose[6:8])
+    u = float(u)
     if dof == 5:
         p_reached, e_reached = p.copy(), e.copy()
     return IKResult(

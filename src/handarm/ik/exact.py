@@ -58,11 +58,15 @@ def branch_of(design: ArmDesign, q) -> tuple[np.ndarray, np.ndarray]:
     check_design(design)
     q = check_joints(q)
     p, e = forward(design, q)
+    return branch_from_pose(q, p, e, joint_positions(design, q)[..., 4, :2])
+
+
+def branch_from_pose(q, p, e, j4) -> tuple[np.ndarray, np.ndarray]:
+    """``branch_of`` from the pose q reaches: tool point p, direction e, joint 4's (x, y)."""
     psi = q[..., 0] + q[..., 1] + q[..., 2]
     d = np.stack([np.cos(psi), np.sin(psi)], axis=-1)
     along = np.sum(d * e[..., :2], axis=-1)
     sign = np.where(along >= 0.0, 1, -1)
-    j4 = joint_positions(design, q)[..., 4, :2]
     u = np.sum((j4 - p[..., :2]) * d, axis=-1)
     branch = np.stack(
         [sign, np.where(q[..., 1] >= 0.0, 1, -1), np.where(q[..., 4] >= 0.0, 1, -1)], axis=-1
