@@ -297,43 +297,119 @@ def _apart(ax, ay, az, ra, bx, by, bz, rb):
 
 
 @nb.njit(**JIT)
-def cover_search(along, across):
-    """The stadium of least area over candidate axes (``handarm.collision.stadium_cover``).
+def _cover_along(along, across):
+    """Least-area stadium along one axis: (area, start, end, middle line).
 
-    ``along``, ``across`` (m, n): the points' coordinates along and across each of m axes.
-    Along each axis the segment runs on the middle line of the points' extent across it; its
-    ends are searched on a 7 x 7 grid (start in the lower half of the extent along, end in
-    the upper half) refined three times. Returns (axis, start, end, middle line).
+    ``along``, ``across`` (n,): the points' coordinates along and across the axis. The segment
+    runs on the middle line of the points' extent across it; its ends are searched on a 7 x 7
+    grid (start in the lower half of the extent along, end in the upper half) refined three
+    times.
     """
-    m, n = along.shape
+    n = along.shape[0]
+    middle = 0.5 * (across.max() + across.min())
+    lo, hi = along.min(), along.max()
+    mid = 0.5 * (lo + hi)
+    a0, a1, b0, b1 = lo, mid, mid, hi
+    best, best_s0, best_s1 = math.inf, 0.0, 0.0
+    # a point's squared distance from the segment [s0, s1] (s0 <= s1) on the middle line is
+    # w2 across it, plus (u - s0)^2 before s0 or (u - s1)^2 beyond s1: the farthest is the
+    # largest of the farthest before s0, the farthest beyond s1 and the largest w2 of all
+    # (no point's w2 exceeds its own distance)
+    w2 = np.empty(n)
+    w2_max = 0.0
+    for p in range(n):
+        w = across[p] - middle
+        w2[p] = w * w
+        w2_max = max(w2_max, w2[p])
+    before, beyond = np.empty(7), np.empty(7)
+    for _ in range(3):
+        top, t0, t1 = math.inf, a0, b1
+        for i in range(7):
+            s0 = a0 + i / 6.0 * (a1 - a0)
+            s1 = b0 + i / 6.0 * (b1 - b0)
+            r0 = r1 = 0.0
+            for p in range(n):
+                u = along[p]
+                if u < s0:
+                    r0 = max(r0, (u - s0) ** 2 + w2[p])
+                if u > s1:
+                    r1 = max(r1, (u - s1) ** 2 + w2[p])
+            before[i], beyond[i] = r0, r1
+        for i in range(7):
+            s0 = a0 + i / 6.0 * (a1 - a0)
+            for j in range(7):
+                s1 = b0 + j / 6.0 * (b1 - b0)
+                r2 = max(before[i], beyond[j], w2_max)
+                r = math.sqrt(r2)
+                area = 2.0 * r * (s1 - s0) + math.pi * r * r
+                if area < top:
+                    top, t0, t1 = area, s0, s1
+        if top < best:
+            best, best_s0, best_s1 = top, t0, t1
+        h0, h1 = (a1 - a0) / 6.0, (b1 - b0) / 6.0
+        a0, a1 = max(lo, t0 - h0), min(mid, t0 + h0)
+        b0, b1 = max(mid, t1 - h1), min(hi, t1 + h1)
+    return best, best_s0, best_s1, middle
+
+
+@nb.njit(**JIT)
+def stadium(pts):
+    """A stadium containing the points (n, 2): (x0, y0, x1, y1, radius).
+
+    See ``handarm.collision.stadium_cover``, which documents the search and calls this.
+    """
+    n = pts.shape[0]
+    cx = 0.5 * (pts[:, 0].min() + pts[:, 0].max())
+    cy = 0.5 * (pts[:, 1].min() + pts[:, 1].max())
+    x = np.empty((n, 2))
+    x[:, 0] = pts[:, 0] - cx
+    x[:, 1] = pts[:, 1] - cy
+    spread, near = 0.0, math.inf
+    for p in range(n):
+        dist = math.hypot(x[p, 0], x[p, 1])
+        spread, near = max(spread, dist), min(near, dist)
+    if spread == 0.0 or (n >= 12 and near > 0.98 * spread):
+        return cx, cy, cx, cy, spread * (1.0 + 1e-12)
+    # candidate axes: the principal axis and the four longest edges
+    axes = np.empty((5, 2))
+    axes[0] = np.linalg.eigh(x.T @ x)[1][:, 1]
+    m = 1
+    lengths = np.empty(n)
+    for p in range(n):
+        q = (p + 1) % n
+        lengths[p] = math.hypot(pts[q, 0] - pts[p, 0], pts[q, 1] - pts[p, 1])
+    order = np.argsort(-lengths, kind="mergesort")
+    for i in order[:4]:
+        if lengths[i] > 1e-9 * spread:
+            q = (i + 1) % n
+            axes[m, 0] = (pts[q, 0] - pts[i, 0]) / lengths[i]
+            axes[m, 1] = (pts[q, 1] - pts[i, 1]) / lengths[i]
+            m += 1
     best, best_k, best_s0, best_s1, best_mid = math.inf, 0, 0.0, 0.0, 0.0
+    along, across = np.empty(n), np.empty(n)
     for k in range(m):
-        middle = 0.5 * (across[k].max() + across[k].min())
-        lo, hi = along[k].min(), along[k].max()
-        mid = 0.5 * (lo + hi)
-        a0, a1, b0, b1 = lo, mid, mid, hi
-        for _ in range(3):
-            top, t0, t1 = math.inf, a0, b1
-            for i in range(7):
-                s0 = a0 + i / 6.0 * (a1 - a0)
-                for j in range(7):
-                    s1 = b0 + j / 6.0 * (b1 - b0)
-                    r2 = 0.0
-                    for p in range(n):
-                        u = along[k, p]
-                        t = min(max(u, s0), s1)
-                        w = across[k, p] - middle
-                        r2 = max(r2, (u - t) ** 2 + w * w)
-                    r = math.sqrt(r2)
-                    area = 2.0 * r * (s1 - s0) + math.pi * r * r
-                    if area < top:
-                        top, t0, t1 = area, s0, s1
-            if top < best:
-                best, best_k, best_s0, best_s1, best_mid = top, k, t0, t1, middle
-            h0, h1 = (a1 - a0) / 6.0, (b1 - b0) / 6.0
-            a0, a1 = max(lo, t0 - h0), min(mid, t0 + h0)
-            b0, b1 = max(mid, t1 - h1), min(hi, t1 + h1)
-    return best_k, best_s0, best_s1, best_mid
+        ax, ay = axes[k, 0], axes[k, 1]
+        for p in range(n):
+            along[p] = ax * x[p, 0] + ay * x[p, 1]
+            across[p] = -ay * x[p, 0] + ax * x[p, 1]
+        area, s0, s1, middle = _cover_along(along, across)
+        if area < best:
+            best, best_k, best_s0, best_s1, best_mid = area, k, s0, s1, middle
+    ax, ay = axes[best_k, 0], axes[best_k, 1]
+    bx, by = cx - best_mid * ay, cy + best_mid * ax
+    x0, y0 = bx + best_s0 * ax, by + best_s0 * ay
+    x1, y1 = bx + best_s1 * ax, by + best_s1 * ay
+    # the radius: the farthest point from the segment
+    dx, dy = x1 - x0, y1 - y0
+    den = dx * dx + dy * dy
+    r2 = 0.0
+    for p in range(n):
+        t = 0.0
+        if den > 0.0:
+            t = min(1.0, max(0.0, ((pts[p, 0] - x0) * dx + (pts[p, 1] - y0) * dy) / den))
+        ex, ey = pts[p, 0] - (x0 + t * dx), pts[p, 1] - (y0 + t * dy)
+        r2 = max(r2, ex * ex + ey * ey)
+    return x0, y0, x1, y1, math.sqrt(r2) * (1.0 + 1e-12) + 1e-12 * spread
 
 
 @nb.njit(**JIT)

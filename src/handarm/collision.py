@@ -181,32 +181,13 @@ def stadium_cover(points) -> tuple[np.ndarray, float]:
     Points that all lie about as far from their centre (a disk's polygon) get a point and
     that distance. Otherwise the candidate axes are the principal axis and the four longest
     edges; along each, the segment runs across the middle of the polygon and its ends are
-    found by a grid search refined three times. A rectangle gets its exact cover: the
-    segment along its long middle line, the radius half its width.
+    found by a grid search refined three times. A rectangle gets a segment on its long
+    middle line.
     """
-    from handarm._collide import cover_search  # numba: compiled on first use, not at import
+    from handarm._collide import stadium  # numba: compiled on first use, not at import
 
-    pts = np.asarray(points, dtype=float)
-    centre = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
-    x = pts - centre
-    dist = np.linalg.norm(x, axis=1)
-    spread = float(dist.max())
-    if spread == 0.0 or (len(pts) >= 12 and dist.min() > 0.98 * spread):
-        seg = np.array([centre, centre])
-        return seg, spread * (1.0 + 1e-12)
-    dirs = [np.linalg.eigh(x.T @ x)[1][:, -1]]
-    edges = np.roll(pts, -1, axis=0) - pts
-    lengths = np.linalg.norm(edges, axis=1)
-    for i in np.argsort(-lengths)[:4]:
-        if lengths[i] > 1e-9 * spread:
-            dirs.append(edges[i] / lengths[i])
-    axis = np.array(dirs)
-    perp = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
-    k, s0, s1, middle = cover_search(axis @ x.T, perp @ x.T)
-    base = centre + middle * perp[k]
-    a, b = base + s0 * axis[k], base + s1 * axis[k]
-    r = float(_dist_to_segment(pts, a, b).max())
-    return np.array([a, b]), r * (1.0 + 1e-12) + 1e-12 * spread
+    x0, y0, x1, y1, r = stadium(np.ascontiguousarray(points, dtype=float))
+    return np.array([[x0, y0], [x1, y1]]), r
 
 
 def _piece(link, frame, verts, z, names) -> tuple[Piece, np.ndarray]:

@@ -323,7 +323,7 @@ def _idler_lift(design: ArmDesign, j: int) -> float:
             y = side * g.groove_radius + d
             edges = [rim - off - 1e-9, g.tongue_radius * (1.0 - 1e-12)]
             x = [np.sqrt(np.maximum(e * e - y * y, 0.0)) for e in edges if math.isfinite(e)]
-            x = np.vstack(x + [np.broadcast_to(v, y.shape) for v in np.linspace(0, 12.0, 25)])
+            x = np.vstack(x + [np.repeat(np.linspace(0, 12.0, 25)[:, None], len(y), axis=1)])
             x = np.minimum(x, length)
             # the corridor's underside: flat on its outer side (the hull with the copy
             # pushed outwards), the run's cylinder on its inner side
@@ -404,36 +404,28 @@ def _plate_cuts(
     cheek = g.cheek
     wall = design.min_wall * MM + _WALL_MARGIN
     inv = np.eye(4) if to_dist is None else np.linalg.inv(to_dist)
-    rows = []
     # what cuts is the corridor: every axis it is the hull of (the runs and their copies
     # pushed outwards, which on l3's twist reach further along joint 4 than the runs do)
-    for start, end in (run for ch in _corridors(design, k) for run in ch.runs):
-        a = (inv @ np.array([*start, 1.0]))[:3]
-        b = (inv @ np.array([*end, 1.0]))[:3]
-        d = b - a
-        # the part of the axis over the plate's stretch of x, -length .. 0
-        if abs(d[0]) < 1e-12:
-            if not -length <= a[0] <= 0.0:
-                continue
-            t0, t1 = 0.0, 1.0
-        else:
-            t0, t1 = sorted(((-length - a[0]) / d[0], (0.0 - a[0]) / d[0]))
-            t0, t1 = max(t0, 0.0), min(t1, 1.0)
-            if t0 > t1:
-                continue
-        for t in np.linspace(t0, t1, 17):
-            x, y, z = a + t * d
-            if abs(y) > g.hub_radius + radius:
-                continue  # beside the plate
-            rows.append(
-                (
-                    x,
-                    y,
-                    z + radius + wall - (g.gap_hi + cheek),
-                    (g.gap_lo - cheek) - (z - radius - wall),
-                )
-            )
-    return np.array(rows, dtype=float).reshape(-1, 4)
+    runs = [run for ch in _corridors(design, k) for run in ch.runs]
+    if not runs:
+        return np.zeros((0, 4))
+    ends = np.asarray(runs, dtype=float)  # (n, 2, 3)
+    ends = ends @ inv[:3, :3].T + inv[:3, 3]
+    a, d = ends[:, 0], ends[:, 1] - ends[:, 0]
+    # the part of each axis over the plate's stretch of x, -length .. 0
+    along = np.abs(d[:, 0]) >= 1e-12
+    dx = np.where(along, d[:, 0], 1.0)
+    ta, tb = (-length - a[:, 0]) / dx, (0.0 - a[:, 0]) / dx
+    t0 = np.where(along, np.maximum(np.minimum(ta, tb), 0.0), 0.0)
+    t1 = np.where(along, np.minimum(np.maximum(ta, tb), 1.0), 1.0)
+    keep = np.where(along, t0 <= t1, (-length <= a[:, 0]) & (a[:, 0] <= 0.0))
+    a, d, t0, t1 = a[keep], d[keep], t0[keep], t1[keep]
+    t = t0[:, None] + np.linspace(0.0, 1.0, 17) * (t1 - t0)[:, None]  # (n, 17)
+    x, y, z = (a[:, None, :] + t[..., None] * d[:, None, :]).reshape(-1, 3).T
+    over = np.abs(y) <= g.hub_radius + radius  # the others pass beside the plate
+    x, y, z = x[over], y[over], z[over]
+    hi = z + radius + wall - (g.gap_hi + cheek)
+    return np.column_stack([x, y, hi, (g.gap_lo - cheek) - (z - radius - wall)])
 
 
 def _plate_extra(

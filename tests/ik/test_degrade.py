@@ -165,3 +165,33 @@ def test_no_degrade_gives_an_empty_result():
     r = ik.solve(d, [0.5, 0.0, 0.0], [1, 0, 0], degrade=False)
     assert r.count == 0 and r.reached_dof == 0
     assert r.to_dict()["reached_dof"] == 0
+
+
+def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):
+    """The seed cloud holds configurations within the limits only (validity is tested on
+    the few nearest a point): every polished configuration is valid, its distance is its
+    tool point's, and the cloud's seeds are its nearest valid configurations, in order."""
+    from handarm.ik import degrade
+
+    d = handarm.ArmDesign()
+    cloud_q, cloud_p = degrade._position_cloud(d)
+    valid = handarm.is_valid(d, cloud_q)
+    assert not valid.all()  # the cloud is not filtered up front
+    np.testing.assert_allclose(cloud_p, handarm.forward(d, cloud_q)[0], atol=1e-15)
+    rng = np.random.default_rng(3)
+    for p in rng.uniform(-0.3, 0.3, (12, 3)):
+        qs, errs = degrade._polished(d, p, None)
+        n_start = len(degrade._start_seeds(d, p, None))
+        assert len(qs) == n_start + degrade._SEEDS
+        ok = np.isfinite(errs)
+        assert handarm.is_valid(d, qs[ok]).all()
+        np.testing.assert_allclose(
+            errs[ok], np.linalg.norm(handarm.forward(d, qs[ok])[0] - p, axis=1), atol=1e-12
+        )
+    # with no polish steps the cloud rows are the seeds themselves
+    monkeypatch.setattr(degrade, "_POLISH_STEPS", 0)
+    for p in rng.uniform(-0.3, 0.3, (12, 3)):
+        qs, _ = degrade._polished(d, p, None)
+        n_start = len(degrade._start_seeds(d, p, None))
+        order = np.argsort(np.linalg.norm(cloud_p[valid] - p, axis=1), kind="stable")
+        np.testing.assert_array_equal(qs[n_start:], cloud_q[valid][order[: degrade._SEEDS]])

@@ -45,11 +45,11 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import polish_each
+from handarm.ik._nearest import NEAR_FIRST, polish_each, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import refine_directions
 from handarm.ik.results import IKResult
-from handarm.kinematics import forward, is_valid
+from handarm.kinematics import is_valid
 from handarm.scene import _kernel_args
 
 __all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction", "ORDERS"]
@@ -475,18 +475,20 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
 
 #: Configurations drawn for a design's cloud of seeds (about 6,000 of them valid). The
 #: closed-form polish reaches a point from most starts, so seeds need not lie as close as
-#: the 40,000 drawn for scipy's polish gave; 8,192 cost about 20 ms on a new design beyond
-#: the collision envelopes that any first solve of it builds.
+#: the 40,000 drawn for scipy's polish gave.
 _CLOUD = 8192
 
 
 @functools.lru_cache(maxsize=8)
 def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
-    """Tool points of many valid configurations (seeds for the nearest-position search)."""
+    """Configurations within the limits and their tool points: the nearest-point seeds.
+
+    Their validity is tested where they are used, on the few nearest a point: the cloud of
+    a new design costs a few ms, not the 10 that testing every one of them takes.
+    """
     rng = np.random.default_rng(12345)
     q = rng.uniform(design.lower, design.upper, (_CLOUD, 6))
-    q = q[is_valid(design, q)]
-    return q, forward(design, q)[0]
+    return q, tool_points(q, design.lengths)
 
 
 def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -533,7 +535,7 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> lis
     if len(cloud_q):
         # the nearest that are valid (in a scene, many near p may meet an obstacle)
         dist = np.linalg.norm(cloud_p - p, axis=1)
-        k = min(40 * _SEEDS, len(dist) - 1)
+        k = min(NEAR_FIRST * _SEEDS, len(dist) - 1)
         nearest = np.argpartition(dist, k)[:k]
         near = cloud_q[nearest[np.argsort(dist[nearest])]]
         # lazily: a validity test costs ~25 us
