@@ -179,7 +179,10 @@ def test_mass_properties_match_trimesh(carved):
 
 @pytest.mark.slow
 def test_limits_beyond_what_the_links_allow_are_carved_to_the_largest_healthy_range():
-    """+-180 degrees on every joint loads, so it carves: each range scaled until healthy."""
+    """+-180 degrees on every joint loads, so it carves: each range scaled until healthy.
+
+    Joint 4 stops at about +-83 degrees: beyond it its sweep leaves a wall of 1.19-1.2 mm
+    in l3 or l4 (carving took 0.01 mm under min_wall as enough before and carved +-145)."""
     from handarm.carve.carving import _healthy
 
     asked = handarm.ArmDesign(joint_limits=[(-math.pi, math.pi)] * 6)
@@ -189,7 +192,8 @@ def test_limits_beyond_what_the_links_allow_are_carved_to_the_largest_healthy_ra
     built = result.as_built
     for k, joint in enumerate(result.joints):
         lo, hi = joint.carved
-        assert -math.pi < lo < -math.radians(90) and math.radians(90) < hi < math.pi
+        least = math.radians(75 if k == 3 else 90)
+        assert -math.pi < lo < -least and least < hi < math.pi
         assert joint.links_meet[0] <= lo and hi <= joint.links_meet[1]
         # inside the request: the links (or the cables, sooner) decide
         assert built.joint_limits[k] == joint.achieved
