@@ -321,26 +321,25 @@ def _cover_along(along, across):
         w = across[p] - middle
         w2[p] = w * w
         w2_max = max(w2_max, w2[p])
+    starts, ends = np.empty(7), np.empty(7)
     before, beyond = np.empty(7), np.empty(7)
     for _ in range(3):
         top, t0, t1 = math.inf, a0, b1
         for i in range(7):
-            s0 = a0 + i / 6.0 * (a1 - a0)
-            s1 = b0 + i / 6.0 * (b1 - b0)
+            starts[i] = a0 + i / 6.0 * (a1 - a0)
+            ends[i] = b0 + i / 6.0 * (b1 - b0)
             r0 = r1 = 0.0
             for p in range(n):
                 u = along[p]
-                if u < s0:
-                    r0 = max(r0, (u - s0) ** 2 + w2[p])
-                if u > s1:
-                    r1 = max(r1, (u - s1) ** 2 + w2[p])
+                if u < starts[i]:
+                    r0 = max(r0, (u - starts[i]) ** 2 + w2[p])
+                if u > ends[i]:
+                    r1 = max(r1, (u - ends[i]) ** 2 + w2[p])
             before[i], beyond[i] = r0, r1
         for i in range(7):
-            s0 = a0 + i / 6.0 * (a1 - a0)
             for j in range(7):
-                s1 = b0 + j / 6.0 * (b1 - b0)
-                r2 = max(before[i], beyond[j], w2_max)
-                r = math.sqrt(r2)
+                s0, s1 = starts[i], ends[j]
+                r = math.sqrt(max(before[i], beyond[j], w2_max))
                 area = 2.0 * r * (s1 - s0) + math.pi * r * r
                 if area < top:
                     top, t0, t1 = area, s0, s1
@@ -399,16 +398,9 @@ def stadium(pts):
     bx, by = cx - best_mid * ay, cy + best_mid * ax
     x0, y0 = bx + best_s0 * ax, by + best_s0 * ay
     x1, y1 = bx + best_s1 * ax, by + best_s1 * ay
-    # the radius: the farthest point from the segment
-    dx, dy = x1 - x0, y1 - y0
-    den = dx * dx + dy * dy
-    r2 = 0.0
+    r2 = 0.0  # the radius: the farthest point from the segment
     for p in range(n):
-        t = 0.0
-        if den > 0.0:
-            t = min(1.0, max(0.0, ((pts[p, 0] - x0) * dx + (pts[p, 1] - y0) * dy) / den))
-        ex, ey = pts[p, 0] - (x0 + t * dx), pts[p, 1] - (y0 + t * dy)
-        r2 = max(r2, ex * ex + ey * ey)
+        r2 = max(r2, _point_segment2(pts[p, 0], pts[p, 1], x0, y0, x1, y1))
     return x0, y0, x1, y1, math.sqrt(r2) * (1.0 + 1e-12) + 1e-12 * spread
 
 
