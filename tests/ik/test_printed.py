@@ -152,9 +152,11 @@ def _table_claims(design, p, e, branch, ua, ub):
 def test_the_tables_claims_hold_along_the_line(seed):
     """Stretches of every width along the limit ranges of FK targets (the paper's arm and
     random designs): wherever a joint-space table calls its pair free (in contact) over a
-    stretch, the pair is free (in contact) at every sample of it."""
+    stretch, the pair is free (in contact) at every sample of it. 48 targets: with 24,
+    short links' forks stopping short of their proximal grooves left seed 1 only 8 hit
+    claims to test."""
     counts = {"hit": 0, "free": 0}
-    for design, p, e, branch, ua, ub, azimuth in _stretches(seed, 24, -1.0):
+    for design, p, e, branch, ua, ub, azimuth in _stretches(seed, 48, -1.0):
         claims = _table_claims(design, p, e, branch, ua, ub)
         if not claims:
             continue
