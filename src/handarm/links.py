@@ -540,6 +540,10 @@ def _wedge_radius(design: ArmDesign, limit: float) -> float:
     return h / math.tan(wedge / 2)
 
 
+#: Least thickness (mm) of a fork's bridge along the link.
+_BRIDGE = 3.0
+
+
 def _fork_sizes(design: ArmDesign, g: JointGeometry, a: float) -> tuple[float, float]:
     """(fork length, bridge start) behind joint j, in mm.
 
@@ -557,10 +561,10 @@ def _fork_sizes(design: ArmDesign, g: JointGeometry, a: float) -> tuple[float, f
     if g.joint >= 2:
         prox = _groove_outer(_joint_geometry(design, g.joint - 1, 0.0))
         room = a - prox - design.min_wall * MM - _WALL_MARGIN
-        length = min(length, max(room, tongue + 3.0))
+        length = min(length, max(room, tongue + _BRIDGE))
     lo, hi = design.joint_limits[g.joint - 1]
     clear = max(tongue, _wedge_radius(design, max(NOMINAL_LIMIT, abs(lo), abs(hi))))
-    return length, min(clear, length - 3.0)
+    return length, min(clear, length - _BRIDGE)
 
 
 #: How far (degrees) each strand still wraps the tongue at the end of the joint's range.
