@@ -316,6 +316,47 @@ def test_pair_table_boxes_hold_everywhere_in_them(name):
     assert decided > 300
 
 
+def _random_tree(rng, depth, kinds):
+    """A random quadtree in the tables' layout (breadth first, children together)."""
+    nodes = [None]
+    level = [0]
+    for d in range(depth):
+        nxt = []
+        for node in level:
+            if d < depth - 1 and rng.random() < 0.7:
+                nodes[node] = len(nodes)
+                nxt += list(range(len(nodes), len(nodes) + 4))
+                nodes += [None] * 4
+            else:
+                nodes[node] = int(rng.choice(kinds))
+        level = nxt
+    for node in level:
+        nodes[node] = int(rng.choice(kinds))
+    return np.array(nodes, np.int32)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_collapsed_table_answers_every_box_as_before(seed):
+    """Merging four leaves of one kind into their parent changes no answer of query_box:
+    random trees (mostly FREE, some HIT, few MIXED), random boxes of every size."""
+    from handarm import _pairtable as T
+
+    rng = np.random.default_rng(seed)
+    kinds = [-1] * 8 + [-2] * 3 + [-3] * (seed % 2)
+    tree = _random_tree(rng, 6, kinds)
+    merged = T._collapsed(tree)
+    assert (merged != tree).any() or seed > 3  # the trees do merge
+    stack, bounds = np.zeros(T.QUERY_STACK, np.int64), np.zeros((T.QUERY_STACK, 4))
+    dom = np.array([0.0, 1.0, 0.0, 1.0])
+    for _ in range(3000):
+        w = 10.0 ** rng.uniform(-3, 0, 2)
+        lo = rng.uniform(0.0, 1.0 - w)
+        box = (lo[0], lo[0] + w[0], lo[1], lo[1] + w[1])
+        assert T.query_box(merged, 0, dom, *box, stack, bounds) == T.query_box(
+            tree, 0, dom, *box, stack, bounds
+        )
+
+
 def test_a_box_outside_its_table_is_unsure():
     from handarm import _pairtable as T
 

@@ -124,7 +124,30 @@ def build_table(
             todo_b[tail, 3] = my if k < 2 else by1
             tail += 1
         n_nodes += 4
-    return nodes[:n_nodes].copy()
+    return _collapsed(nodes[:n_nodes])
+
+
+@nb.njit(**JIT)
+def _collapsed(nodes):
+    """The tree with every node whose four children are leaves of one kind made that leaf.
+
+    A cell made of four FREE cells is FREE (every configuration of it lies in one of them),
+    likewise HIT; children come after their parent (the tree is built breadth first), so one
+    pass from the end merges whole subtrees. ``query_box`` then stops at the merged leaf
+    instead of visiting every small leaf of a region the model decided cell by cell. The
+    merged nodes' children stay in the array, unreachable.
+    """
+    out = nodes.copy()
+    for node in range(out.shape[0] - 1, -1, -1):
+        v = out[node]
+        if v < 0:
+            continue
+        kind = out[v]
+        if kind != _LEAF_FREE and kind != _LEAF_HIT:
+            continue
+        if out[v + 1] == kind and out[v + 2] == kind and out[v + 3] == kind:
+            out[node] = kind
+    return out
 
 
 @nb.njit(**JIT)
