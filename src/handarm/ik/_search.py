@@ -178,3 +178,109 @@ def refine_directions(
         pattern_search(
             p, psi, e0, edge, cos_ring, sin_ring, top, tol, rounds, a, mdl, sc, scene, out[i]
         )
+
+
+#: Circles of level 4 (``handarm.ik.degrade``): directions of e's yaw at every pitch (a
+#: vertical great circle, the tip plane kept), and of e's pitch at every yaw.
+PITCH_CIRCLE, YAW_CIRCLE = 0, 1
+
+
+@nb.njit(**JIT)
+def circle_direction(kind, yaw, pitch, pole, th, out):
+    """The unit direction at angle ``th`` of a level-4 circle, into out.
+
+    PITCH_CIRCLE: (cos th cos yaw, cos th sin yaw, sin th), with |cos th| kept at least
+    ``pole`` so that a point on the pole keeps L's azimuth (the circle's, not the free one of
+    a vertical direction); YAW_CIRCLE: (cos pitch cos th, cos pitch sin th, sin pitch).
+    """
+    if kind == PITCH_CIRCLE:
+        c = math.cos(th)
+        if abs(c) < pole:
+            c = pole if c >= 0.0 else -pole
+        st = math.sin(th)
+        sign = 1.0 if st > 0.0 else (-1.0 if st < 0.0 else 0.0)
+        out[0], out[1], out[2] = c * math.cos(yaw), c * math.sin(yaw), sign * math.sqrt(1.0 - c * c)
+    else:
+        cp = math.cos(pitch)
+        out[0], out[1], out[2] = cp * math.cos(th), cp * math.sin(th), math.sin(pitch)
+
+
+@nb.njit(**JIT)
+def circle_cost(kind, x, cos_pitch):
+    """Angle (rad) from the circle's start of the direction |x| away along it."""
+    if kind == PITCH_CIRCLE:
+        return x
+    return 2.0 * math.asin(min(1.0, cos_pitch * math.sin(0.5 * x)))
+
+
+@nb.njit(**JIT)
+def nearest_on_circles(
+    p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
+    mdl, scene, out_dir, out_kind, stats,
+):  # fmt: skip
+    """The nearest solvable direction on each side of each level-4 circle (one call).
+
+    ``kinds`` (n,): the circles searched, in order (``PITCH_CIRCLE`` starts at e's pitch,
+    ``YAW_CIRCLE`` at its yaw). Every side goes out from its start over ``offsets`` (the
+    grid, rad) in blocks ending at ``block_ends``, all sides in turn, each block tested until
+    its first solvable direction (the rest of the side is farther). With ``prune`` a side
+    stops as soon as nothing it could still find costs less than the cheapest grid direction
+    found so far on any side (bisection moves it by less than one grid step, ``fine``), so
+    every side pays only for the directions up to the best answer. The sides found are
+    refined by bisection to the boundary (``tol``). Writes the directions to ``out_dir`` and
+    their circle's index in ``kinds`` to ``out_kind``; returns how many. ``stats[0]`` counts
+    the directions tested on the grid.
+    """
+    sc = search_scratch(lower, upper, mdl, scene[3], scene[4].shape[0])
+    cos_pitch = math.cos(pitch)
+    n_sides = 2 * kinds.shape[0]
+    open_ = np.ones(n_sides, np.bool_)
+    hit_x = np.zeros(n_sides)
+    hits = np.empty(n_sides, np.int64)
+    n_hits = 0
+    best = math.inf
+    d = np.empty(3)
+    start = 0
+    for b in range(block_ends.shape[0] + 1):
+        stop = block_ends[b] if b < block_ends.shape[0] else offsets.shape[0]
+        for s in range(n_sides):
+            if not open_[s]:
+                continue
+            kind, side = kinds[s // 2], 1.0 if s % 2 == 0 else -1.0
+            th0 = pitch if kind == PITCH_CIRCLE else yaw
+            if prune and circle_cost(kind, max(offsets[start] - fine, 0.0), cos_pitch) > best:
+                open_[s] = False
+                continue
+            for k in range(start, stop):
+                stats[0] += 1
+                circle_direction(kind, yaw, pitch, pole, th0 + side * offsets[k], d)
+                if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+                    hit_x[s] = side * offsets[k]
+                    hits[n_hits] = s
+                    n_hits += 1
+                    best = min(best, circle_cost(kind, offsets[k], cos_pitch))
+                    open_[s] = False
+                    break
+        start = stop
+        if start >= offsets.shape[0] or not open_.any():
+            break
+    n = 0
+    for h in range(n_hits):
+        s = hits[h]
+        kind, side = kinds[s // 2], 1.0 if s % 2 == 0 else -1.0
+        th0 = pitch if kind == PITCH_CIRCLE else yaw
+        good = hit_x[s]
+        if prune and circle_cost(kind, max(abs(good) - fine, 0.0), cos_pitch) > best:
+            continue
+        bad = good - side * fine
+        while abs(good - bad) > tol:
+            mid = 0.5 * (good + bad)
+            circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
+            if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+                good = mid
+            else:
+                bad = mid
+        circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
+        out_kind[n] = s // 2
+        n += 1
+    return n

@@ -47,12 +47,12 @@ from handarm.design import ArmDesign
 from handarm.ik import exact as S
 from handarm.ik._nearest import NEAR_FIRST, polish_each, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
-from handarm.ik._search import refine_directions
+from handarm.ik._search import PITCH_CIRCLE, YAW_CIRCLE, nearest_on_circles, refine_directions
 from handarm.ik.results import IKResult
 from handarm.kinematics import is_valid
 from handarm.scene import _kernel_args
 
-__all__ = ["degrade_target", "closest_direction_on_circle", "closest_direction", "ORDERS"]
+__all__ = ["degrade_target", "closest_direction", "ORDERS"]
 
 #: Level orders ``solve(..., order=...)`` accepts.
 ORDERS = ("paper", "angle")
@@ -162,85 +162,46 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.sqrt(np.sum(d * d, axis=-1)), np.sqrt(np.sum(s * s, axis=-1)))
 
 
-def _bisect(test, good: float, bad: float, tol: float = ANGLE_TOL) -> float:
-    """The solvable end of [bad, good] nearest ``bad`` (``test(x)`` true at ``good``)."""
-    while abs(good - bad) > tol:
-        mid = 0.5 * (good + bad)
-        if test(mid):
-            good = mid
-        else:
-            bad = mid
-    return good
+def _search_scene(design: ArmDesign) -> tuple:
+    """The scene as the compiled searches take it: (pi, pf, coef, n_pieces, obstacles, c).
 
-
-def closest_direction_on_circle(design, p, make_dir, theta0):
-    """Solvable angles closest to theta0 on a one-parameter circle of directions.
-
-    Parameters
-    ----------
-    design : ArmDesign
-    p : ndarray, shape (3,)
-    make_dir : callable
-        Angles (n,) -> unit directions (n, 3); the cost grows with |angle - theta0|.
-    theta0 : float
-
-    Returns
-    -------
-    list of float
-        The nearest solvable angle on each side of theta0 (none if the circle is unsolvable):
-        the first solvable grid angle going out, refined by bisection to the boundary
-        (``ANGLE_TOL``).
+    With no scene, no obstacle rows: the searches ask the free solver.
     """
-    return [theta0 + x for _, x in _nearest_on_circles(design, p, [(make_dir, theta0, abs)], False)]
+    pi, pf, n_pieces, coef = _kernel_args(design)
+    scene = _SCENE.get()
+    if scene is None:
+        return pi, pf, coef, n_pieces, np.zeros((0, 16)), 0.0
+    return pi, pf, coef, n_pieces, scene[0].obstacles, float(scene[1])
 
 
-def _nearest_on_circles(design, p, circles, prune=True):
-    """The nearest solvable angle on each side of each circle, as (circle index, offset).
+#: The level-4 scan's grid of offsets along a circle (rad), and where its blocks end.
+_GRID = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
+_GRID_BLOCKS = _BLOCK_ENDS[_BLOCK_ENDS < len(_GRID)].astype(np.int64)
 
-    ``circles``: (make_dir, theta0, cost) with ``cost(|offset|)`` the angle from the circle's
-    start direction, growing with |offset|. Every side goes out from theta0 on the grid in
-    blocks, all sides in turn, each block tested in one call that stops at its first
-    solvable direction (the rest of the side is farther). With ``prune`` a side stops as
-    soon as nothing it could still find can cost less than the cheapest grid angle found
-    so far, on any side (bisection moves an angle by less than one grid step): every side
-    pays only for the angles up to the best answer, not the whole circle. The sides left
-    are refined by bisection to the boundary (``ANGLE_TOL``).
+
+def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None):
+    """The nearest solvable direction on each side of each level-4 circle (one numba call).
+
+    ``kinds``: which circles (``_search.PITCH_CIRCLE`` through e's yaw at every pitch,
+    ``_search.YAW_CIRCLE`` at e's pitch), from e's pitch and yaw. Every side goes out on a
+    0.25-degree grid in blocks, all sides in turn; with ``prune`` a side stops as soon as it
+    cannot beat the cheapest grid direction found so far; the sides left are bisected to the
+    boundary (``ANGLE_TOL``). See ``handarm.ik._search.nearest_on_circles``. ``stats``: a
+    list that gets the number of grid directions tested.
     """
-    grid = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
-    blocks = np.split(grid, _BLOCK_ENDS[_BLOCK_ENDS < len(grid)])
-    sides = [(c, side) for c in range(len(circles)) for side in (1.0, -1.0)]
-    hits = {}  # (circle, side) -> first solvable grid offset
-    open_sides = list(sides)
-    best = math.inf  # cost of the cheapest grid angle found
-
-    def floor(c, x):  # the least cost a side can reach from grid offset x on
-        return circles[c][2](max(abs(x) - _FINE_STEP, 0.0))
-
-    for offs in blocks:
-        for c, side in list(open_sides):
-            if prune and floor(c, offs[0]) > best:
-                open_sides.remove((c, side))
-                continue
-            make_dir, theta0, cost = circles[c]
-            k = _first_solvable(design, p, make_dir(theta0 + side * offs))
-            if k >= 0:
-                hits[(c, side)] = side * offs[k]
-                best = min(best, cost(offs[k]))
-                open_sides.remove((c, side))
-        if not open_sides:
-            break
-    found = []
-    for (c, side), x in hits.items():
-        if prune and floor(c, x) > best:
-            continue
-        make_dir, theta0, _ = circles[c]
-        good = _bisect(
-            lambda y, m=make_dir, t=theta0: bool(_solvable(design, p, m(np.array([t + y])))[0]),
-            x,
-            x - side * _FINE_STEP,
-        )
-        found.append((c, good))
-    return found
+    kinds = np.asarray(kinds, np.int64)
+    out_dir = np.empty((2 * len(kinds), 3))
+    out_kind = np.empty(2 * len(kinds), np.int64)
+    counts = np.zeros(1, np.int64)
+    n = nearest_on_circles(
+        np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p), kinds,
+        float(e_yaw), float(e_pitch), _POLE, bool(prune), _GRID, _GRID_BLOCKS, _FINE_STEP,
+        ANGLE_TOL, design.lengths, design.lower, design.upper, S._model(design, 0.0),
+        _search_scene(design), out_dir, out_kind, counts,
+    )  # fmt: skip
+    if stats is not None:
+        stats.append(int(counts[0]))
+    return list(out_dir[:n])
 
 
 def _fibonacci_sphere(n: int) -> np.ndarray:
@@ -321,12 +282,6 @@ def _refine(design, p, e0, starts) -> list[np.ndarray]:
         return []
     starts = np.ascontiguousarray(np.array(starts, dtype=float).reshape(-1, 3))
     out = np.empty_like(starts)
-    pi, pf, n_pieces, coef = _kernel_args(design)
-    scene = _SCENE.get()
-    if scene is None:
-        obs, clearance = np.zeros((0, 16)), 0.0
-    else:
-        obs, clearance = scene[0].obstacles, float(scene[1])
     refine_directions(
         np.ascontiguousarray(p, dtype=float),
         S._default_vertical_azimuth(p),
@@ -341,7 +296,7 @@ def _refine(design, p, e0, starts) -> list[np.ndarray]:
         design.lower,
         design.upper,
         S._model(design, 0.0),
-        (pi, pf, coef, n_pieces, obs, clearance),
+        _search_scene(design),
         out,
     )
     return list(out)
@@ -384,45 +339,27 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
-def _circle_candidates(design, p, e, current, prune=True) -> list[np.ndarray]:
+def _circle_candidates(design, p, e, current, prune=True, stats=None) -> list[np.ndarray]:
     """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle).
 
     With ``prune`` only the candidates that can be the nearest to e (see
-    ``_nearest_on_circles``), else the nearest on each side of each circle.
+    ``_nearest_on_circles``), else the nearest on each side of each circle. ``stats`` gets
+    the number of grid directions tested.
     """
     pitch, yaw = _pitch_yaw(e)
     if math.hypot(e[0], e[1]) < KEEP_TOL:  # vertical e: its "yaw" is L's azimuth
         yaw = S._azimuth(p, e, current)[1]
 
-    def along_pitch(th):
-        # the full vertical great circle through e: the tip plane is kept; points on the
-        # pole move off it along the circle, so L keeps e's yaw
-        th = np.asarray(th, float)
-        c = np.cos(th)
-        c = np.where(np.abs(c) < _POLE, np.where(c >= 0, _POLE, -_POLE), c)
-        s = np.sign(np.sin(th)) * np.sqrt(1.0 - c * c)
-        return np.stack([c * math.cos(yaw), c * math.sin(yaw), s], axis=-1)
-
-    def along_yaw(ph):
-        c = math.cos(pitch)
-        return np.stack([c * np.cos(ph), c * np.sin(ph), np.full_like(ph, math.sin(pitch))], -1)
-
-    cos_pitch = math.cos(pitch)
-
-    def yaw_cost(x):  # angle from e of the direction x (rad) of yaw away on its small circle
-        return 2.0 * math.asin(min(1.0, cos_pitch * math.sin(0.5 * x)))
-
     # the pitch circle keeps L's azimuth, so its base problem is e's; the yaw circle keeps the
     # elevation, so its tip problem is e's: where that sub-problem alone has no valid
     # stretch, no direction of the circle is solvable and the circle is not searched
     base, tip = S.sub_problems_solvable(design, p, e, yaw)
-    circles = []
+    kinds = []
     if base:
-        circles.append((along_pitch, pitch, float))  # a great circle: the angle is the offset
-    if tip and cos_pitch > KEEP_TOL:  # a vertical e has no pitch-keeping circle
-        circles.append((along_yaw, yaw, yaw_cost))
-    found = _nearest_on_circles(design, p, circles, prune)
-    return [circles[c][0](np.array([circles[c][1] + x]))[0] for c, x in found]
+        kinds.append(PITCH_CIRCLE)  # the vertical great circle through e: the tip plane kept
+    if tip and math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
+        kinds.append(YAW_CIRCLE)
+    return _nearest_on_circles(design, p, yaw, pitch, kinds, prune, stats)
 
 
 def degrade_target(
