@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from handarm import _jitcache  # noqa: F401  (first: it stamps every kernel's cache)
 from handarm._lazy import lazy_attributes
 from handarm.design import PAPER_LIMITS_DEG, ArmDesign
 from handarm.kinematics import (
