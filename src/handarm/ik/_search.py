@@ -216,7 +216,7 @@ def circle_cost(kind, x, cos_pitch):
 @nb.njit(**JIT)
 def nearest_on_circles(
     p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
-    mdl, scene, out_dir, out_kind, stats,
+    mdl, scene, out_dir, stats,
 ):  # fmt: skip
     """The nearest solvable direction on each side of each level-4 circle (one call).
 
@@ -227,9 +227,8 @@ def nearest_on_circles(
     stops as soon as nothing it could still find costs less than the cheapest grid direction
     found so far on any side (bisection moves it by less than one grid step, ``fine``), so
     every side pays only for the directions up to the best answer. The sides found are
-    refined by bisection to the boundary (``tol``). Writes the directions to ``out_dir`` and
-    their circle's index in ``kinds`` to ``out_kind``; returns how many. ``stats[0]`` counts
-    the directions tested on the grid.
+    refined by bisection to the boundary (``tol``). Writes the directions to ``out_dir``;
+    returns how many. ``stats[0]`` counts the directions tested on the grid.
     """
     sc = search_scratch(lower, upper, mdl, scene[3], scene[4].shape[0])
     cos_pitch = math.cos(pitch)
@@ -281,6 +280,5 @@ def nearest_on_circles(
             else:
                 bad = mid
         circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
-        out_kind[n] = s // 2
         n += 1
     return n

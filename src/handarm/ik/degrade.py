@@ -191,13 +191,12 @@ def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None
     """
     kinds = np.asarray(kinds, np.int64)
     out_dir = np.empty((2 * len(kinds), 3))
-    out_kind = np.empty(2 * len(kinds), np.int64)
     counts = np.zeros(1, np.int64)
     n = nearest_on_circles(
         np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p), kinds,
         float(e_yaw), float(e_pitch), _POLE, bool(prune), _GRID, _GRID_BLOCKS, _FINE_STEP,
         ANGLE_TOL, design.lengths, design.lower, design.upper, S._model(design, 0.0),
-        _search_scene(design), out_dir, out_kind, counts,
+        _search_scene(design), out_dir, counts,
     )  # fmt: skip
     if stats is not None:
         stats.append(int(counts[0]))
