@@ -42,6 +42,32 @@ def test_the_stamp_changes_with_any_source_file_and_only_with_its_content(tmp_pa
     assert _jitcache.source_digest(root) != before
 
 
+def test_sources_edited_after_import_give_a_stamp_nothing_shares(tmp_path):
+    """A process that imported handarm before an edit holds a mixture of old and new
+    modules: no cached code fits it, so its stamp matches nothing, not even itself."""
+    root = tmp_path / "pkg"
+    shutil.copytree(_jitcache.ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))
+    files = _jitcache._sources(root)
+    at_import = _jitcache.source_digest(root)
+    assert _jitcache.stamp_now(root, files, at_import) == at_import
+    (root / "collision.py").touch()
+    assert _jitcache.stamp_now(root, files, at_import) == at_import
+    (root / "collision.py").write_text((root / "collision.py").read_text() + "\n# edit\n")
+    first, second = (_jitcache.stamp_now(root, files, at_import) for _ in range(2))
+    assert first != at_import and second != at_import and first != second
+
+
+def test_editor_lock_files_and_unreadable_entries_are_not_sources(tmp_path):
+    """Emacs keeps a dangling ``.#name.py`` link beside a modified buffer: the digest, and
+    so every kernel's import, must not trip over it."""
+    root = tmp_path / "pkg"
+    shutil.copytree(_jitcache.ROOT, root, ignore=shutil.ignore_patterns("__pycache__"))
+    before = _jitcache.source_digest(root)
+    (root / "ik" / ".#_solve.py").symlink_to("user@host.1234:1700000000")
+    (root / "dangling.py").symlink_to(tmp_path / "nowhere.py")
+    assert _jitcache.source_digest(root) == before
+
+
 def test_kernels_outside_the_package_keep_numbas_locators(tmp_path):
     src = tmp_path / "outside_kernel.py"
     src.write_text("import numba\n\n@numba.njit(cache=True)\ndef plus_one(x):\n    return x + 1\n")
