@@ -214,6 +214,13 @@ def circle_cost(kind, x, cos_pitch):
 
 
 @nb.njit(**JIT)
+def _circle_side(kinds, s, yaw, pitch):
+    """Side s of the circles ``kinds`` (two per circle, + then -): (kind, sign, start angle)."""
+    kind = kinds[s // 2]
+    return kind, 1.0 if s % 2 == 0 else -1.0, pitch if kind == PITCH_CIRCLE else yaw
+
+
+@nb.njit(**JIT)
 def nearest_on_circles(
     p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
     mdl, scene, out_dir, stats,
@@ -245,8 +252,7 @@ def nearest_on_circles(
         for s in range(n_sides):
             if not open_[s]:
                 continue
-            kind, side = kinds[s // 2], 1.0 if s % 2 == 0 else -1.0
-            th0 = pitch if kind == PITCH_CIRCLE else yaw
+            kind, side, th0 = _circle_side(kinds, s, yaw, pitch)
             if prune and circle_cost(kind, max(offsets[start] - fine, 0.0), cos_pitch) > best:
                 open_[s] = False
                 continue
@@ -266,8 +272,7 @@ def nearest_on_circles(
     n = 0
     for h in range(n_hits):
         s = hits[h]
-        kind, side = kinds[s // 2], 1.0 if s % 2 == 0 else -1.0
-        th0 = pitch if kind == PITCH_CIRCLE else yaw
+        kind, side, th0 = _circle_side(kinds, s, yaw, pitch)
         good = hit_x[s]
         if prune and circle_cost(kind, max(abs(good) - fine, 0.0), cos_pitch) > best:
             continue
