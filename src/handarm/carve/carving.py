@@ -4,12 +4,14 @@ At joint j the distal link turns by q in [lo, hi] relative to the proximal one. 
 proximal link loses the volume the distal link sweeps over [lo, hi]; the distal link loses
 what the proximal one sweeps, seen from the distal link, over [-hi, -lo]; both sweeps are
 grown by the print clearance. A range whose sweeps would leave either link in pieces, without
-its bore wall, or with a wall thinner than ``min_wall`` is narrowed until they do not. Each
-side, the links meet at the largest angle before their carved solids touch (manifold3d
-intersection volume, bisection to 0.05 degrees); the *achieved* limit is that angle (or the
-carved limit, where carving narrowed the request), or less where a cable run would meet one
-of the two links first (``handarm.tendons.cable_limits``): the range over which the printed
-joint turns with its cables clear.
+its bore wall, or with a wall thinner than ``min_wall`` is narrowed until they do not; walls
+under ``min_wall`` that a blank's own corridors leave (or that slip past the range's test)
+are rounded off by a local morphological opening (``opened``). Each side, the links meet at
+the largest angle before their carved solids touch (manifold3d intersection volume,
+bisection to 0.05 degrees); the *achieved* limit is that angle (or the carved limit, where
+carving narrowed the request), or less where a cable run would meet one of the two links
+first (``handarm.tendons.cable_limits``): the range over which the printed joint turns with
+its cables clear.
 """
 
 from __future__ import annotations
@@ -162,6 +164,103 @@ def _to_link(blank: LinkBlank, part: Part) -> Manifold:
 def _blank_solid(blank: LinkBlank) -> Manifold:
     solid = Manifold.batch_boolean([_to_link(blank, p) for p in blank.parts], OpType.Add)
     return solid - _holes(blank)
+
+
+#: mm: how far round the thin walls a link's knife edges are opened away (the box grows to
+#: take in thin walls the opening itself leaves at the box's faces), and how many times.
+_OPEN_MARGIN, _OPEN_ROUNDS = 2.0, 4
+#: Segments round the ball the opening rolls (manifold3d's sphere), and the turns (degrees
+#: about x, y and z) tried where the ball's facets leave two sheets touching at a point.
+_BALL_SEGMENTS = 16
+_BALL_TURNS = ((0.0, 0.0, 0.0), (7.0, 11.0, 5.0), (13.0, 3.0, 17.0))
+#: mm^3: a body this small that an opening leaves beside the link is the boolean's rounding
+#: (a degenerate point of the ball's facets), not material.
+_SPECK = 1e-3
+#: mm: slivers booleans leave are dropped down to 0.1 um (more than float32 resolves at
+#: these sizes), so that STL readers see a closed mesh.
+_SLIVER = 1e-4
+
+
+def opened(
+    solid: Manifold, lo, hi, wall: float, keep: Manifold | None = None, turn=(0.0, 0.0, 0.0)
+) -> Manifold:
+    """The solid with what is thinner than ``wall`` inside the box lo..hi (mm) taken away.
+
+    A morphological opening inside the box: what is left there is the union of the balls of
+    diameter ``wall`` that fit in the solid, so every wall there is at least ``wall`` thick
+    (a ray cast inwards from its surface crosses a whole ball). Rounding off a knife edge
+    this way leaves no new one, where a cut with flat faces across a slanted face does. The
+    ball is a polyhedron circumscribing the sphere of diameter ``wall`` (turned by ``turn``,
+    degrees), so that the walls left are not a facet's depth under it. It is opened over a
+    box grown by its diameter so that the box's own faces round nothing inside; ``keep``
+    (where walls of exactly ``wall`` are built on purpose, e.g. the groove's roof) is never
+    taken away.
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    radius = wall / 2 / math.cos(math.pi / _BALL_SEGMENTS) ** 2
+    pad = 2 * radius + 0.5
+    outer = Manifold.cube(hi - lo + 2 * pad).translate(lo - pad)
+    inner = Manifold.cube(hi - lo).translate(lo)
+    piece = solid ^ outer
+    ball = Manifold.sphere(radius, _BALL_SEGMENTS).rotate(list(turn))
+    eroded = piece - (outer - piece).minkowski_sum(ball)
+    kept = eroded.minkowski_sum(ball) ^ inner
+    if keep is not None:
+        kept = kept + (solid ^ inner ^ keep)
+    return (solid - inner) + kept
+
+
+def _pinched(solid: Manifold) -> bool:
+    """Whether two vertices of the solid fall on one point in float32.
+
+    An STL reader merges the two, and the mesh it reads is no longer closed.
+    """
+    v = np.asarray(solid.to_mesh().vert_properties)[:, :3].astype(np.float32)
+    return len(np.unique(v, axis=0)) < len(v)
+
+
+def _opened_whole(solid: Manifold, lo, hi, wall: float, keep) -> Manifold | None:
+    """``opened``, slivers dropped, if that leaves one body that closes as an STL; else None."""
+    for turn in _BALL_TURNS:
+        result = opened(solid, lo, hi, wall, keep, turn).simplify(_SLIVER)
+        bodies = [b for b in result.decompose() if b.volume() > _SPECK]
+        if len(bodies) == 1 and not _pinched(bodies[0]):
+            return bodies[0]
+    return None
+
+
+def _without_knife_edges(link: LinkBlank, solid: Manifold, wall: float) -> Manifold:
+    """The link's solid with its walls under ``wall`` (mm) opened away (``opened``).
+
+    As it was where no opening leaves it in one piece that closes as an STL. A cable
+    corridor that leaves a face at a slant leaves a knife edge (l3's twist leaving its
+    fork's bridge on a short l3, or passing just under joint 4's plate edge), and so may a
+    neighbour's sweep past a corridor. The box opened round the thin walls grows until the
+    walls it leaves at its faces are inside it too. The tongue, whose groove's roof stands
+    ``min_wall`` under its face by design, is kept whole. The walls are measured as the
+    link reports measure them (``properties.wall_samples``), on the solid returned.
+    """
+    from handarm.carve.properties import wall_samples
+
+    pts, dist = wall_samples(solid)
+    thin = pts[dist < wall]
+    if not len(thin):
+        return solid
+    tongue = [_to_link(link, p) for p in link.parts if p.name.startswith("tongue")]
+    keep = Manifold.batch_boolean(tongue, OpType.Add) if tongue else None
+    lo, hi = thin.min(axis=0) - _OPEN_MARGIN, thin.max(axis=0) + _OPEN_MARGIN
+    for _ in range(_OPEN_ROUNDS):
+        result = _opened_whole(solid, lo, hi, wall, keep)
+        if result is None:  # broken, or pinched with every turn of the ball: a larger box
+            lo, hi = lo - _OPEN_MARGIN, hi + _OPEN_MARGIN
+            continue
+        pts, dist = wall_samples(result)
+        thin = pts[dist < wall]
+        if not len(thin):
+            return result
+        lo = np.minimum(lo, thin.min(axis=0) - _OPEN_MARGIN)
+        hi = np.maximum(hi, thin.max(axis=0) + _OPEN_MARGIN)
+    return solid
 
 
 def _cylinder(start, end, radius: float, segments: int = 32, turn: float = 0.0) -> Manifold:
@@ -341,7 +440,8 @@ def carve(
     grow = design.clearance * MM + 2 * _JITTER_MM
     tick = progress or (lambda label: None)
     blanks = [link_blank(design, k) for k in range(7)]
-    solids = [_blank_solid(b) for b in blanks]
+    wall = design.min_wall * MM
+    solids = [_without_knife_edges(b, _blank_solid(b), wall) for b in blanks]
     floors = [_wall_floor(design, solid) for solid in solids]  # each link's, measured once
     carve_limits = []
     cut_prox: list[Manifold | None] = [None] * 7  # cut made by the joint at the link's prox end
@@ -363,14 +463,15 @@ def carve(
     links = []
     for k in range(7):
         cuts = [c for c in (cut_prox[k], cut_dist[k]) if c is not None]
+        solid = solids[k]
         if cuts:
-            cut = Manifold.batch_boolean(cuts, OpType.Add).translate(_JITTER)
-            solid = solids[k] - cut
-        else:
-            solid = solids[k]
-        # drop the slivers booleans leave, down to 0.1 um (more than float32 resolves at
-        # these sizes), so that STL readers see a closed mesh
-        links.append(CarvedLink(blanks[k], solid.simplify(1e-4)))
+            solid = solid - Manifold.batch_boolean(cuts, OpType.Add).translate(_JITTER)
+        solid = solid.simplify(_SLIVER)
+        if floors[k] >= wall:
+            # a sweep that passes a corridor may leave a sliver the range search's rays
+            # missed: opened away as the blank's own were
+            solid = _without_knife_edges(blanks[k], solid, wall)
+        links.append(CarvedLink(blanks[k], solid))
         tick(f"link l{k} carved")
     meet = []
     for j in range(1, 7):
