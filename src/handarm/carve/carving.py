@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import io
 import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -170,7 +171,8 @@ def _blank_solid(blank: LinkBlank) -> Manifold:
 #: take in thin walls the opening itself leaves at the box's faces), and how many times.
 _OPEN_MARGIN, _OPEN_ROUNDS = 2.0, 4
 #: Segments round the ball the opening rolls (manifold3d's sphere), and the turns (degrees
-#: about x, y and z) tried where the ball's facets leave two sheets touching at a point.
+#: about x, y and z) tried where its facets leave a mesh that does not close as an STL (two
+#: sheets touching at a point, an edge shorter than float32 resolves).
 _BALL_SEGMENTS = 16
 _BALL_TURNS = ((0.0, 0.0, 0.0), (7.0, 11.0, 5.0), (13.0, 3.0, 17.0))
 #: mm^3: a body this small that an opening leaves beside the link is the boolean's rounding
@@ -210,13 +212,19 @@ def opened(
     return (solid - inner) + kept
 
 
-def _pinched(solid: Manifold) -> bool:
-    """Whether two vertices of the solid fall on one point in float32.
+def _closes_as_stl(solid: Manifold) -> bool:
+    """Whether the solid, written as a binary STL and read back (trimesh), is closed.
 
-    An STL reader merges the two, and the mesh it reads is no longer closed.
+    A reader merges vertices that fall on one point in float32 and drops the faces that
+    collapse: where an opening's ball leaves two sheets touching at a point, or an edge
+    shorter than float32 resolves, the mesh it reads is open.
     """
-    v = np.asarray(solid.to_mesh().vert_properties)[:, :3].astype(np.float32)
-    return len(np.unique(v, axis=0)) < len(v)
+    import trimesh
+
+    from handarm.carve.properties import to_trimesh
+
+    data = to_trimesh(solid).export(file_type="stl")
+    return bool(trimesh.load(io.BytesIO(data), file_type="stl").is_watertight)
 
 
 def _opened_whole(solid: Manifold, lo, hi, wall: float, keep) -> Manifold | None:
@@ -224,7 +232,7 @@ def _opened_whole(solid: Manifold, lo, hi, wall: float, keep) -> Manifold | None
     for turn in _BALL_TURNS:
         result = opened(solid, lo, hi, wall, keep, turn).simplify(_SLIVER)
         bodies = [b for b in result.decompose() if b.volume() > _SPECK]
-        if len(bodies) == 1 and not _pinched(bodies[0]):
+        if len(bodies) == 1 and _closes_as_stl(bodies[0]):
             return bodies[0]
     return None
 
