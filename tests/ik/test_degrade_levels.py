@@ -307,6 +307,36 @@ def test_straight_arm_is_an_exact_single_point(paper):
     assert handarm.is_valid(paper, r.solutions).all()
 
 
+@pytest.mark.parametrize(
+    ("p", "e"),
+    [
+        # an independent oracle's cases (2026-11-27): level 2 with a 1e-17 m position error
+        ([0.25479176771485074, -0.15837031004813226, 0.0], [0.8507103, -0.525606, -0.005496]),
+        ([0.3 * math.cos(0.4), 0.3 * math.sin(0.4), 0.0], [0.0, 0.0, -1.0]),
+        ([0.3 * math.cos(-1.2), 0.3 * math.sin(-1.2), 0.0], [0.3, -0.2, 0.9]),
+    ],
+)
+def test_a_point_only_the_stretched_arm_reaches_keeps_its_position(paper, p, e):
+    """On the reach sphere in the base plane only the stretched arm reaches p, pointing
+    radially: a single direction, which level 3's search of the sphere cannot see. The
+    answer is level 3 at p with that direction, not level 2 at a rounding's distance."""
+    p, e = np.asarray(p), np.asarray(e) / np.linalg.norm(e)
+    radial = p / np.linalg.norm(p)
+    stretched = np.array([math.atan2(p[1], p[0]), 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert handarm.is_valid(paper, stretched)  # that pose exists
+    np.testing.assert_allclose(handarm.forward(paper, stretched)[0], p, atol=1e-15)
+    r = ik.solve(paper, p, e)
+    assert r.reached_dof == 3
+    assert r.position_error == 0.0
+    np.testing.assert_array_equal(r.achieved_position, p)
+    assert angle(r.achieved_direction, radial) < 1e-6
+    assert r.direction_error == pytest.approx(angle(r.achieved_direction, e), abs=1e-12)
+    p2, e2 = handarm.forward(paper, r.solutions)
+    np.testing.assert_allclose(p2, np.broadcast_to(p, p2.shape), atol=1e-12)
+    np.testing.assert_allclose(e2, np.broadcast_to(r.achieved_direction, e2.shape), atol=1e-9)
+    assert handarm.is_valid(paper, r.solutions).all()
+
+
 def test_the_searches_count_as_count_solutions_does(paper):
     """Degradation counts its own directions without the input checks: same answers for
     random (unnormalised) directions, vertical ones, and a point on joint 1's axis."""

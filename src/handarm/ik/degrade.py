@@ -71,6 +71,8 @@ ANGLE_TOL = 1e-5
 _POLE = 1e-9
 _SPHERE = 2000
 _SEEDS = 8  # valid configurations near p polished as seeds (levels 3 and 2)
+#: m: a polished tool point this near the target is the target (rounding of the kinematics)
+_AT_TARGET = 1e-12
 _STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
 _SAME_DIRECTION = 1e-3  # rad: seed directions closer than this start one search
 _PATTERN_ROUNDS = 300  # rings of one pattern search, at most (a narrow sliver can creep on)
@@ -526,6 +528,10 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     if best_q is None:  # no valid seed at all: the zero pose is the fallback
         best_q = np.zeros(6)
         best_err = float(np.linalg.norm(_pose(design, best_q)[0] - p))
+    if best_err < _AT_TARGET:
+        # p is reached after all: its poses are a set level 3's search cannot see (the
+        # stretched arm on the reach sphere has one direction, the radial one)
+        return _single_point(design, best_q, p, e, 3, 0.0, current)
     p_reached, e_reached = _pose(design, best_q)
     # point at the target from there, if that pose has a solution
     aim = p - p_reached
@@ -548,7 +554,8 @@ def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
 
     At level 5 this is a degenerate exact solution (the straight arm, joints pinned at
     their limits) that the range solver, which classifies open gaps between events, cannot
-    see; ``achieved_direction`` is then e itself.
+    see; ``achieved_direction`` is then e itself. At levels 5 and 3 q reaches p (to
+    rounding), and ``achieved_position`` is p itself.
     """
     pose = np.empty(8)
     tool_pose(np.ascontiguousarray(q, dtype=float), design.lengths, pose)
@@ -556,8 +563,10 @@ def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
     psi = math.atan2(math.sin(q[0] + q[1] + q[2]), math.cos(q[0] + q[1] + q[2]))
     branch, u = S.branch_from_pose(q, p_reached, e_reached, pose[6:8])
     u = float(u)
+    if dof >= 3:
+        p_reached = p.copy()
     if dof == 5:
-        p_reached, e_reached = p.copy(), e.copy()
+        e_reached = e.copy()
     return IKResult(
         q[None, :],
         branch[None, :],
