@@ -425,7 +425,7 @@ def test_short_links_carve_their_ranges_with_walls_that_print(changes):
 
 def test_an_opening_leaves_every_wall_in_its_box_a_ball_thick():
     """``opened`` rounds a knife edge off instead of cutting it: a corridor leaving a block's
-    face at 20 degrees leaves a wedge (0.0x mm at its tip); opened over a box round it,
+    face at 20 degrees leaves a wedge (under 0.1 mm at its tip); opened over a box round it,
     every point of the surface inside the box has most of a ball of diameter min_wall
     behind it inside the solid (trimesh's signed distance at the ball's centre, not the rays
     the walls are measured with; 0.2 mm less for the ball's facets; before, a ball there

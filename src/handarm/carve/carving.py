@@ -240,7 +240,8 @@ def _opened_whole(solid: Manifold, lo, hi, wall: float, keep) -> Manifold | None
 def _without_knife_edges(link: LinkBlank, solid: Manifold, wall: float) -> Manifold:
     """The link's solid with its walls under ``wall`` (mm) opened away (``opened``).
 
-    As it was where no opening leaves it in one piece that closes as an STL. A cable
+    As it was where no opening (four rounds) leaves every wall at least ``wall`` in one
+    piece that closes as an STL: the link then reports its thin wall. A cable
     corridor that leaves a face at a slant leaves a knife edge (l3's twist leaving its
     fork's bridge on a short l3, or passing just under joint 4's plate edge), and so may a
     neighbour's sweep past a corridor. The box opened round the thin walls grows until the
