@@ -337,6 +337,47 @@ def test_a_point_only_the_stretched_arm_reaches_keeps_its_position(paper, p, e):
     assert handarm.is_valid(paper, r.solutions).all()
 
 
+#: (p, e, a solvable direction at p) from an independent oracle check (2026-11-27: a
+#: 20,000-point sphere refined by shrinking caps) that level 3 answered worse than by more
+#: than 0.01 degrees: the pattern search's ring of 16 stepped over the closer directions.
+LEVEL3_MISSES = [
+    (
+        [0.2343788801165287, -0.0431847524539032, 0.08391829790884282],
+        [-0.5540530902710713, 0.7857050694699245, -0.27512309421482123],
+        [-0.10965355499051303, 0.022020661518380155, 0.9937259120825196],
+    ),  # 4.7 degrees worse, stopped next to straight up
+    (
+        [-0.1487286433864153, -0.1927183394840304, 0.045595421448977505],
+        [-0.04552061674891396, 0.5462414384427875, -0.836389959515747],
+        [-0.47656705517098574, -0.5273031134081722, -0.7034452846637776],
+    ),
+    (
+        [-0.03136595649168085, -0.2907293138254817, 0.022583523465752098],
+        [-0.18024508527086777, 0.906810821446593, -0.3810588449872971],
+        [-0.1298270744448993, -0.964021093900142, -0.23196607781452108],
+    ),
+    (
+        [-0.12260494571166514, -0.002735544079493291, 0.13818862131364026],
+        [0.2969023251789501, 0.678543094677253, -0.671884125403443],
+        [0.42761700531182306, 0.3482027391674056, 0.8342053399520194],
+    ),
+]
+
+
+@pytest.mark.parametrize(("p", "e", "witness"), LEVEL3_MISSES)
+def test_level3_is_no_worse_than_an_oracles_solvable_direction(paper, p, e, witness):
+    """Level 3 (both orders) is within 0.01 degrees of the oracle's direction, which is
+    checked solvable here (count_solutions)."""
+    p, e, w = (np.asarray(v, float) for v in (p, e, witness))
+    e, w = e / np.linalg.norm(e), w / np.linalg.norm(w)
+    assert solvable(paper, p, w[None])[0]
+    for order in ("paper", "angle"):
+        r = ik.solve(paper, p, e, order=order)
+        assert r.reached_dof in (3, 4)
+        check_pose(paper, r, p)
+        assert r.direction_error <= angle(w, e) + math.radians(0.01), order
+
+
 def test_the_searches_count_as_count_solutions_does(paper):
     """Degradation counts its own directions without the input checks: same answers for
     random (unnormalised) directions, vertical ones, and a point on joint 1's axis."""

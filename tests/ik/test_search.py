@@ -51,7 +51,7 @@ def test_tangents_complete_a_right_handed_frame(v):
 def reference_refine(design, p, e0, good):
     """The search in plain Python with public counts: arc bisection, then rings."""
     from handarm import ik
-    from handarm.ik.degrade import _PATTERN_ROUNDS, ANGLE_TOL
+    from handarm.ik.degrade import _PATTERN_ROUNDS, _RING, ANGLE_TOL
 
     def solvable(v):
         return ik.count_solutions(design, p[None], normal(v)[None])[0] > 0
@@ -70,7 +70,7 @@ def reference_refine(design, p, e0, good):
         lo, hi = (lo, mid) if solvable(slerp(e0, good, mid)) else (mid, hi)
     good = slerp(e0, good, hi)
     top = step = math.radians(2.0)
-    ring = np.linspace(0, 2 * math.pi, 16, endpoint=False)
+    ring = _RING  # the same trial directions
     for _ in range(_PATTERN_ROUNDS):
         if step <= ANGLE_TOL:
             break
