@@ -170,10 +170,11 @@ def _blank_solid(blank: LinkBlank) -> Manifold:
 #: mm: how far round the thin walls a link's knife edges are opened away (the box grows to
 #: take in thin walls the opening itself leaves at the box's faces), and how many times.
 _OPEN_MARGIN, _OPEN_ROUNDS = 2.0, 4
-#: mm: the largest box side opened. Knife edges are local (l3's: boxes of 7-14 mm); thin
-#: walls over more than this (cheeks thinner than min_wall by design) are the design's and
-#: are reported, not opened (a Minkowski sum over a whole link takes minutes).
-_OPEN_MAX = 20.0
+#: mm: the widest spread of thin walls opened. Knife edges are local (l3's spread over 3-8
+#: mm); thin walls spread wider (cheeks, or a bore wall, thinner than min_wall by design:
+#: 14.5 mm round the widest axle's) are the design's and are reported, not opened (a
+#: Minkowski sum that large takes minutes).
+_OPEN_MAX = 10.0
 #: Segments round the ball the opening rolls (manifold3d's sphere), and the turns (degrees
 #: about x, y and z) tried where its facets leave a mesh that does not close as an STL (two
 #: sheets touching at a point, an edge shorter than float32 resolves).
@@ -244,9 +245,9 @@ def _opened_whole(solid: Manifold, lo, hi, wall: float, keep) -> Manifold | None
 def _without_knife_edges(link: LinkBlank, solid: Manifold, wall: float) -> Manifold:
     """The link's solid with its walls under ``wall`` (mm) opened away (``opened``).
 
-    As it was where no opening (four rounds, boxes up to ``_OPEN_MAX``) leaves every wall
-    at least ``wall`` in one piece that closes as an STL: the link then reports its thin
-    wall. A cable
+    As it was where the thin walls spread over more than ``_OPEN_MAX``, or no opening (four
+    rounds) leaves every wall at least ``wall`` in one piece that closes as an STL: the
+    link then reports its thin wall. A cable
     corridor that leaves a face at a slant leaves a knife edge (l3's twist leaving its
     fork's bridge on a short l3, or passing just under joint 4's plate edge), and so may a
     neighbour's sweep past a corridor. The box opened round the thin walls grows until the
@@ -262,10 +263,10 @@ def _without_knife_edges(link: LinkBlank, solid: Manifold, wall: float) -> Manif
         return solid
     tongue = [_to_link(link, p) for p in link.parts if p.name.startswith("tongue")]
     keep = Manifold.batch_boolean(tongue, OpType.Add) if tongue else None
+    if float(np.max(thin.max(axis=0) - thin.min(axis=0))) > _OPEN_MAX:
+        return solid
     lo, hi = thin.min(axis=0) - _OPEN_MARGIN, thin.max(axis=0) + _OPEN_MARGIN
     for _ in range(_OPEN_ROUNDS):
-        if float(np.max(hi - lo)) > _OPEN_MAX:
-            break
         result = _opened_whole(solid, lo, hi, wall, keep)
         if result is None:  # broken, or pinched with every turn of the ball: a larger box
             lo, hi = lo - _OPEN_MARGIN, hi + _OPEN_MARGIN
