@@ -247,24 +247,22 @@ def _without_knife_edges(link: LinkBlank, solid: Manifold, wall: float) -> Manif
 
     As it was where the thin walls spread over more than ``_OPEN_MAX``, or no opening (four
     rounds) leaves every wall at least ``wall`` in one piece that closes as an STL: the
-    link then reports its thin wall. A cable
-    corridor that leaves a face at a slant leaves a knife edge (l3's twist leaving its
-    fork's bridge on a short l3, or passing just under joint 4's plate edge), and so may a
-    neighbour's sweep past a corridor. The box opened round the thin walls grows until the
-    walls it leaves at its faces are inside it too. The tongue, whose groove's roof stands
-    ``min_wall`` under its face by design, is kept whole. The walls are measured as the
-    link reports measure them (``properties.wall_samples``), on the solid returned.
+    link then reports its thin wall. A cable corridor that leaves a face at a slant leaves
+    a knife edge (l3's twist leaving its fork's bridge on a short l3, or passing just under
+    joint 4's plate edge), and so may a neighbour's sweep past a corridor. The box opened
+    round the thin walls grows until the walls it leaves at its faces are inside it too.
+    The tongue, whose groove's roof stands ``min_wall`` under its face by design, is kept
+    whole. The walls are measured as the link reports measure them
+    (``properties.wall_samples``), on the solid returned.
     """
     from handarm.carve.properties import wall_samples
 
     pts, dist = wall_samples(solid)
     thin = pts[dist < wall]
-    if not len(thin):
+    if not len(thin) or float(np.max(thin.max(axis=0) - thin.min(axis=0))) > _OPEN_MAX:
         return solid
     tongue = [_to_link(link, p) for p in link.parts if p.name.startswith("tongue")]
     keep = Manifold.batch_boolean(tongue, OpType.Add) if tongue else None
-    if float(np.max(thin.max(axis=0) - thin.min(axis=0))) > _OPEN_MAX:
-        return solid
     lo, hi = thin.min(axis=0) - _OPEN_MARGIN, thin.max(axis=0) + _OPEN_MARGIN
     for _ in range(_OPEN_ROUNDS):
         result = _opened_whole(solid, lo, hi, wall, keep)
