@@ -39,23 +39,37 @@ def main() -> int:
 
     status = run()
     if status == EXIT_INTERRUPTED:
-        _quiet_teardown()
+        _end_interrupted(status)
     return status
 
 
-def _quiet_teardown() -> None:
-    """After "interrupted" is reported, the interpreter's teardown says nothing more.
+def _end_interrupted(status: int) -> None:
+    """After "interrupted" is reported, end the process without the interpreter's teardown.
 
     A Ctrl-C can land inside a library's constructor (seen in CI: llvmlite's ``ObjectRef``);
     the half-built object's finalizer then fails while Python exits and prints "Exception
-    ignored in ..." with a traceback. The command has already cleaned up and reported; what
-    remains is noise about objects the interrupt cut short.
+    ignored in ..." with a traceback. Worse, tearing down native libraries an interrupt cut
+    short can crash: CI once saw ``handarm build`` report "interrupted" and then die of
+    SIGSEGV (status -11) instead of exiting 130. The command has already cleaned up and
+    reported, so the exit handlers libraries registered (``atexit``: closing Dask clients,
+    stopping tqdm's monitor) run, silently, and the process then ends at once with
+    ``status``, skipping module teardown and native destructors.
     """
-    sys.stderr.flush()
+    import atexit
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe: nothing more can be said
+            pass
     sys.unraisablehook = lambda info: None
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 2)
     os.close(devnull)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        os._exit(status)
 
 
 if __name__ == "__main__":
