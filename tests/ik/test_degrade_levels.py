@@ -444,3 +444,81 @@ def test_a_sub_problem_with_no_valid_stretch_rules_out_its_whole_circle(paper):
             circle = np.stack([c * np.cos(t), c * np.sin(t), np.full_like(t, e[2])], 1)
             assert not solvable(paper, p, circle).any()
     assert min(ruled_out.values()) >= 5, ruled_out
+
+
+
+def _fibonacci(n):
+    i = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * i / n
+    t = math.pi * (1.0 + math.sqrt(5.0)) * i
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(t), r * np.sin(t), z], axis=1)
+
+
+def _cap(c, radius, n, rng):
+    """n directions uniform in the cap of angular radius ``radius`` round the unit c."""
+    a = np.array([1.0, 0, 0]) if abs(c[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(c, a)
+    u /= np.linalg.norm(u)
+    w = np.cross(c, u)
+    th = np.sqrt(rng.uniform(0, 1, n)) * radius
+    ph = rng.uniform(0, 2 * math.pi, n)
+    v = np.cos(th)[:, None] * c + np.sin(th)[:, None] * (
+        np.cos(ph)[:, None] * u + np.sin(ph)[:, None] * w
+    )
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def sphere_oracle(design, p, e, starts, rng, n=6000, per_cap=300):
+    """Smallest angle from e to a solvable direction at p: a Fibonacci sphere and the
+    ``starts`` (directions known solvable), the best two refined by shrinking caps (a
+    move to any closer solvable sample of the cap, else half the cap, down to 1e-6 rad)."""
+    cand = np.vstack([_fibonacci(n), starts])
+    cand = cand[solvable(design, p, cand)]
+    ang = angle(cand, e)
+    best = math.inf
+    for i in np.argsort(ang)[:2]:
+        v, a, r = cand[i], ang[i], 0.05
+        while r > 1e-6:
+            s = _cap(v, r, per_cap, rng)
+            sa = angle(s, e)
+            closer = sa < a
+            ok = np.zeros(len(s), bool)
+            if closer.any():
+                ok[closer] = solvable(design, p, s[closer])
+            if ok.any():
+                j = int(np.argmin(np.where(ok, sa, np.inf)))
+                v, a = s[j], sa[j]
+            else:
+                r *= 0.5
+        best = min(best, a)
+    return best
+
+
+@pytest.mark.slow
+def test_level3_matches_a_sphere_oracle_on_many_targets(paper):
+    """Level 3 on 100 targets (tool points of valid configurations, one in two pushed 3 %
+    outwards, random directions, no exact solution): never farther from e than the oracle's
+    direction by more than 0.01 degrees. The generating configuration's own direction is
+    one of the oracle's starts: it is solvable at p."""
+    rng = np.random.default_rng(21)
+    q = valid_configurations(paper, rng, 4000)
+    P, E0 = handarm.forward(paper, q)
+    P[::2] *= 1.03
+    E = rng.normal(size=P.shape)
+    E /= np.linalg.norm(E, axis=1, keepdims=True)
+    checked, worse = 0, []
+    for i in np.flatnonzero(ik.count_solutions(paper, P, E) == 0):
+        if checked == 100:
+            break
+        r = ik.solve(paper, P[i], E[i])
+        if r.reached_dof != 3:
+            continue
+        checked += 1
+        check_pose(paper, r, P[i])
+        starts = E0[i][None] if solvable(paper, P[i], E0[i][None])[0] else np.zeros((0, 3))
+        best = sphere_oracle(paper, P[i], E[i], starts, rng)
+        if r.direction_error > best + math.radians(0.01):
+            worse.append((i, math.degrees(r.direction_error - best)))
+    assert checked == 100
+    assert not worse, worse
