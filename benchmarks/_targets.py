@@ -18,9 +18,14 @@ def fk_targets(design: handarm.ArmDesign, rng: np.random.Generator, n: int):
     return handarm.forward(design, np.concatenate(found)[:n])
 
 
-def arguments(doc: str, targets: int, argv=None) -> argparse.Namespace:
+def parser(doc: str, targets: int, help: str | None = None) -> argparse.ArgumentParser:
     """--targets (default ``targets``) and --seed, with the script's docstring as help."""
     ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
-    ap.add_argument("--targets", type=int, default=targets)
+    ap.add_argument("--targets", type=int, default=targets, help=help)
     ap.add_argument("--seed", type=int, default=0)
-    return ap.parse_args(argv)
+    return ap
+
+
+def arguments(doc: str, targets: int, argv=None) -> argparse.Namespace:
+    """``parser``'s arguments, parsed."""
+    return parser(doc, targets).parse_args(argv)

@@ -6,6 +6,11 @@ towards it within the limits (``handarm.ik._polish.polish_to_point``); where a p
 configuration collides under the printed-link model, the last valid point of the
 joint-space segment from the start is kept and the polish restarted from there. One
 compiled call for every seed: the Python loop spent more around each step than in it.
+
+The nearest reachable point usually lies on a collision boundary, and a polish stops where
+its step first meets one. Level 2 then *slides* (``slide``): a pattern search over valid
+configurations that polls directions along the boundary as well as towards the point.
+Every polished seed slides a little; the best few slide to the end (``slide_best``).
 """
 
 from __future__ import annotations
@@ -17,14 +22,29 @@ import numpy as np
 
 from handarm._collide import collides, scratch
 from handarm.ik._common import JIT
-from handarm.ik._polish import polish_to_point, tool_pose
+from handarm.ik._polish import polish_to_point, tool_point_and_jacobian, tool_pose
 
 #: Restarts of one seed's polish after it ran into a collision.
 RESTARTS = 4
 #: Bisection steps for the last valid point of a segment.
 BISECTIONS = 40
-#: Cloud configurations tested for validity first, per one wanted: about 3 in 4 are valid.
-NEAR_FIRST = 40
+#: Cloud configurations tested for validity first, per one wanted: about 3 in 4 are valid
+#: (where fewer are, the whole cloud is sorted). The nearest are kept by insertion, whose
+#: cost grows with their number: 40 per one wanted cost 3 ms a target with 32 wanted.
+NEAR_FIRST = 4
+#: Sliding: iterations for every polished seed, then (at most) for the best few of them.
+SLIDE_FIRST = 60
+SLIDE_BEST = 3
+SLIDE_MAX = 3000
+#: Joint-space step (rad) a slide starts with, its largest, and the one it ends below.
+SLIDE_STEP, SLIDE_STEP_MAX, SLIDE_STEP_MIN = 0.05, 0.2, 1e-9
+#: A slide ends when this many iterations brought the tool point less than SLIDE_GAIN (m) nearer.
+SLIDE_PATIENCE, SLIDE_GAIN = 100, 1e-10
+#: Turns (rad) of the steepest descent towards each null-space direction of the Jacobian.
+_TILTS = (0.5, 1.0, 1.3, 1.5)
+#: Random poll directions per iteration, besides the steered ones.
+_RANDOM_POLLS = 8
+_POLLS = 2 + 2 * 3 * len(_TILTS) + _RANDOM_POLLS
 
 
 @nb.njit(**JIT)
@@ -41,16 +61,19 @@ def valid_one(q, a, lower, upper, pi, pf, groups, rows, c, sc):
 def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc, out):
     """A valid configuration near the valid q0 whose tool point is nearer target, into out.
 
-    As ``handarm.ik.degrade._polish``: returns |tool point - target| (m).
+    As ``handarm.ik.degrade._polish``: returns (|tool point - target| (m), whether a
+    collision cut the polish short).
     """
     q = q0.copy()
     x = np.empty(6)
     trial = np.empty(6)
+    blocked = False
     for _ in range(RESTARTS):
         polish_to_point(q, target, a, lower, upper, steps, x)
         if valid_one(x, a, lower, upper, pi, pf, groups, rows, c, sc):
             q[:] = x
             break
+        blocked = True
         lo, hi = 0.0, 1.0
         for _ in range(BISECTIONS):
             mid = 0.5 * (lo + hi)
@@ -67,9 +90,115 @@ def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc
     out[:] = q
     pose = np.empty(8)
     tool_pose(q, a, pose)
-    return math.sqrt(
+    dist = math.sqrt(
         (pose[0] - target[0]) ** 2 + (pose[1] - target[1]) ** 2 + (pose[2] - target[2]) ** 2
     )
+    return dist, blocked
+
+
+@nb.njit(**JIT)
+def _distance(q, target, a, p, jac):
+    """|tool point of q - target|; p and jac get the tool point and its Jacobian."""
+    tool_point_and_jacobian(q, a, p, jac)
+    return math.sqrt((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2 + (p[2] - target[2]) ** 2)
+
+
+@nb.njit(**JIT)
+def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
+    """Pattern search from the valid q (changed in place) to valid configurations nearer target.
+
+    Each iteration polls directions in joint space at the present step and moves along the
+    first that stays valid and brings the tool point nearer: the last successful one, the
+    steepest descent, the descent turned by each of ``_TILTS`` towards either side of each
+    direction of the Jacobian's null space (along it the tool point stays put, so these
+    creep along a collision boundary the descent runs into), and ``_RANDOM_POLLS`` random
+    directions. A move doubles the step (up to SLIDE_STEP_MAX), a miss halves it. It ends
+    when the step falls below SLIDE_STEP_MIN, after ``iters`` iterations, or when
+    SLIDE_PATIENCE iterations gained less than SLIDE_GAIN. Returns (distance, step).
+    """
+    p = np.empty(3)
+    jac = np.empty((3, 6))
+    scratch_jac = np.empty((3, 6))
+    trial = np.empty(6)
+    polls = np.empty((_POLLS, 6))
+    last = np.zeros(6)
+    has_last = False
+    f = _distance(q, target, a, p, jac)
+    mark, mark_it = f, 0
+    for it in range(iters):
+        if step < SLIDE_STEP_MIN or f == 0.0:
+            break
+        if it - mark_it >= SLIDE_PATIENCE:
+            if mark - f < SLIDE_GAIN:
+                break
+            mark, mark_it = f, it
+        f = _distance(q, target, a, p, jac)
+        g = np.zeros(6)
+        for j in range(6):
+            for k in range(3):
+                g[j] += jac[k, j] * (p[k] - target[k])
+        gn = math.sqrt(np.sum(g * g))
+        n = 0
+        if has_last:
+            polls[n] = last
+            n += 1
+        if gn > 0.0:
+            polls[n] = -g / gn
+            descent = n
+            n += 1
+            null = np.linalg.svd(jac)[2]  # rows 3..5 span the null space
+            for k in range(3, 6):
+                for tilt in _TILTS:
+                    for side in (-1.0, 1.0):
+                        polls[n] = math.cos(tilt) * polls[descent] + side * math.sin(tilt) * null[k]
+                        n += 1
+        for _ in range(_RANDOM_POLLS):
+            v = np.random.standard_normal(6)  # noqa: NPY002 (numba's per-thread state)
+            polls[n] = v / math.sqrt(np.sum(v * v))
+            n += 1
+        moved = False
+        for k in range(n):
+            for j in range(6):
+                trial[j] = min(upper[j], max(lower[j], q[j] + step * polls[k, j]))
+            ft = _distance(trial, target, a, p, scratch_jac)
+            if ft < f - 1e-13 and valid_one(trial, a, lower, upper, pi, pf, groups, rows, c, sc):
+                q[:] = trial
+                f = ft
+                last[:] = polls[k]
+                has_last = moved = True
+                break
+        step = min(2.0 * step, SLIDE_STEP_MAX) if moved else 0.5 * step
+    return _distance(q, target, a, p, jac), step
+
+
+@nb.njit(**JIT)
+def slide_best(target, a, lower, upper, pi, pf, groups, rows, c, out_q, out_err, blocked, n):
+    """Rows of ``out_q[:n]`` whose polish a collision cut short slide; the best slide on.
+
+    Each such row (``blocked``) slides SLIDE_FIRST iterations, then the SLIDE_BEST nearest
+    of them slide on to the end. A polish no collision stopped ended where the limits and the
+    distance allow no further step, and a slide (which polls within the same limits) would
+    find none either. Rows and their distances ``out_err`` are updated in place. The
+    random polls are seeded here, so that an answer does not depend on earlier calls.
+    """
+    if not blocked[:n].any():
+        return
+    np.random.seed(20261127)  # noqa: NPY002 (seeds numba's state on this thread only)
+    sc = scratch(pi.shape[0])
+    steps = np.full(n, SLIDE_STEP)
+    for i in range(n):
+        if out_err[i] < np.inf and blocked[i]:
+            out_err[i], steps[i] = slide(
+                out_q[i], target, a, lower, upper, pi, pf, groups, rows, c, sc, SLIDE_FIRST,
+                SLIDE_STEP,
+            )  # fmt: skip
+    order = np.argsort(np.where(blocked[:n], out_err[:n], np.inf))
+    for i in order[:SLIDE_BEST]:
+        if out_err[i] < np.inf and blocked[i]:
+            out_err[i], _ = slide(
+                out_q[i], target, a, lower, upper, pi, pf, groups, rows, c, sc, SLIDE_MAX,
+                max(steps[i], SLIDE_STEP_MIN),
+            )  # fmt: skip
 
 
 @nb.njit(**JIT)
@@ -113,23 +242,25 @@ def nearest_cloud(cloud_p, target, k, out):
 @nb.njit(**JIT)
 def polish_each(
     seeds, cloud_q, cloud_p, n_cloud, target, a, lower, upper, steps, pi, pf, groups, rows, c,
-    out_q, out_err,
+    out_q, out_err, out_blocked,
 ):  # fmt: skip
     """Every seed polished towards target: the seeds, then the nearest cloud configurations.
 
     ``seeds`` (m, 6): starting configurations, each used if valid; then the ``n_cloud``
     valid configurations of ``cloud_q`` (within the limits, tested here nearest first, so
     the cloud needs no validity test of its own) whose points ``cloud_p`` lie nearest
-    target, nearest first. Row i of ``out_q`` / ``out_err`` gets the polished configuration
-    and its distance from target (inf for an invalid seed). Returns the number of rows
-    filled (m + at most n_cloud).
+    target, nearest first. Row i of ``out_q`` / ``out_err`` / ``out_blocked`` gets the
+    polished configuration, its distance from target (inf for an invalid seed) and whether
+    a collision cut its polish short. Returns the number of rows filled (m + at most
+    n_cloud).
     """
     sc = scratch(pi.shape[0])
     n = 0
     for i in range(seeds.shape[0]):
         out_err[n] = np.inf
+        out_blocked[n] = False
         if valid_one(seeds[i], a, lower, upper, pi, pf, groups, rows, c, sc):
-            out_err[n] = polish_valid(
+            out_err[n], out_blocked[n] = polish_valid(
                 seeds[i], target, a, lower, upper, steps, pi, pf, groups, rows, c, sc, out_q[n]
             )
         n += 1
@@ -140,27 +271,28 @@ def polish_each(
     idx = np.empty(k, np.int64)
     m = nearest_cloud(cloud_p, target, k, idx)
     env = (pi, pf, groups, rows, c, sc)
+    out = (out_q, out_err, out_blocked)
     found = _polish_valid_of(idx[:m], cloud_q, n_cloud, target, a, lower, upper, steps, env,
-                             out_q, out_err, n)  # fmt: skip
+                             out, n)  # fmt: skip
     if found < n_cloud and m < cloud_p.shape[0]:
         order = np.argsort(np.sum((cloud_p - target) ** 2, axis=1), kind="mergesort")
         found = _polish_valid_of(order, cloud_q, n_cloud, target, a, lower, upper, steps, env,
-                                 out_q, out_err, n)  # fmt: skip
+                                 out, n)  # fmt: skip
     return n + found
 
 
 @nb.njit(**JIT)
-def _polish_valid_of(order, cloud_q, n_cloud, target, a, lower, upper, steps, env, out_q, out_err,
-                     n):  # fmt: skip
+def _polish_valid_of(order, cloud_q, n_cloud, target, a, lower, upper, steps, env, out, n):
     """The first ``n_cloud`` valid of ``cloud_q[order]`` polished into rows n.. (their count)."""
     pi, pf, groups, rows, c, sc = env
+    out_q, out_err, out_blocked = out
     found = 0
     for i in order:
         if found == n_cloud:
             break
         if not valid_one(cloud_q[i], a, lower, upper, pi, pf, groups, rows, c, sc):
             continue
-        out_err[n + found] = polish_valid(
+        out_err[n + found], out_blocked[n + found] = polish_valid(
             cloud_q[i], target, a, lower, upper, steps, pi, pf, groups, rows, c, sc,
             out_q[n + found],
         )  # fmt: skip

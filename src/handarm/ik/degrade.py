@@ -13,7 +13,9 @@ keeps what its name says:
     p exact; the reachable direction closest to e.
 2 DoF
     p out of reach: the nearest reachable tool point, with the tool pointing at p when the
-    arm can.
+    arm can. Valid configurations near p are polished towards it; those a printed-link
+    contact stopped then slide along it (``handarm.ik._nearest.slide``), since the nearest
+    point usually lies on such a contact.
 
 Order: ``order="paper"`` (the paper's) tries 4, then 3, then 2; a level-4 answer can cost
 more angle than the best level-3 one, since keeping pitch or yaw is a constraint.
@@ -45,7 +47,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import NEAR_FIRST, polish_each, tool_points
+from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import PITCH_CIRCLE, YAW_CIRCLE, nearest_on_circles, refine_directions
 from handarm.ik.results import IKResult
@@ -70,7 +72,10 @@ ANGLE_TOL = 1e-5
 #: circle, so that L's azimuth is the circle's and not the free one of a vertical e.
 _POLE = 1e-9
 _SPHERE = 2000
-_SEEDS = 8  # valid configurations near p polished as seeds (levels 3 and 2)
+_SEEDS = 8  # valid configurations near p polished as seeds (level 3's directions)
+#: Level 2's seeds: the nearest point's basin is often not that of the nearest few
+#: configurations (near the base axis, the oracle check's misses, see ``_two_dof``).
+_NEAREST_SEEDS = 32
 #: m: a polished tool point this near the target is the target (rounding of the kinematics)
 _AT_TARGET = 1e-12
 _STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
@@ -415,10 +420,10 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     return result
 
 
-#: Configurations drawn for a design's cloud of seeds (about 6,000 of them valid). The
-#: closed-form polish reaches a point from most starts, so seeds need not lie as close as
-#: the 40,000 drawn for scipy's polish gave.
-_CLOUD = 8192
+#: Configurations drawn for a design's cloud of seeds (about 24,000 of them valid), in
+#: about 5 ms. The closed-form polish reaches a point from most starts; level 2's 32 seeds
+#: are the nearest of enough configurations to hold several basins of the distance.
+_CLOUD = 32768
 
 
 @functools.lru_cache(maxsize=8)
@@ -470,26 +475,33 @@ def _start_seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
     return seeds
 
 
-def _seeds(design: ArmDesign, p: np.ndarray, current, cloud: bool = True) -> list[np.ndarray]:
-    """Valid starting configurations: the stretched arm aimed at p, current, cloud points."""
+def _seeds(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False) -> list:
+    """Valid starting configurations: the stretched arm aimed at p, current, cloud points.
+
+    ``nearest`` (level 2): ``_NEAREST_SEEDS`` cloud points, else ``_SEEDS``.
+    """
     seeds = [q for q in _start_seeds(design, p, current) if _valid(design, q)]
     cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
     if len(cloud_q):
         # the nearest that are valid (in a scene, many near p may meet an obstacle)
         dist = np.linalg.norm(cloud_p - p, axis=1)
-        k = min(NEAR_FIRST * _SEEDS, len(dist) - 1)
-        nearest = np.argpartition(dist, k)[:k]
-        near = cloud_q[nearest[np.argsort(dist[nearest])]]
+        wanted = _NEAREST_SEEDS if nearest else _SEEDS
+        k = min(NEAR_FIRST * wanted, len(dist) - 1)
+        closest = np.argpartition(dist, k)[:k]
+        near = cloud_q[closest[np.argsort(dist[closest])]]
         # lazily: a validity test costs ~25 us
-        seeds.extend(itertools.islice((q for q in near if _valid(design, q)), _SEEDS))
+        seeds.extend(itertools.islice((q for q in near if _valid(design, q)), wanted))
     return seeds
 
 
-def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True):
+def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False):
     """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,)).
 
     Invalid seeds have distance inf. Under the printed-link model with no scene one
-    compiled call does it all (``handarm.ik._nearest``); else seed by seed.
+    compiled call does it all (``handarm.ik._nearest``); else seed by seed. ``nearest``
+    (level 2): ``_NEAREST_SEEDS`` cloud seeds, and under the printed-link model with no
+    scene the polished seeds then slide along the collision boundaries
+    (``handarm.ik._nearest.slide_best``).
     """
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
@@ -498,16 +510,22 @@ def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True):
             cloud_q, cloud_p = _position_cloud(design)
         else:
             cloud_q, cloud_p = np.zeros((0, 6)), np.zeros((0, 3))
-        n_cloud = min(_SEEDS, len(cloud_q))
+        n_cloud = min(_NEAREST_SEEDS if nearest else _SEEDS, len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
+        blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
         pi, pf, groups, _, rows, c = kernel_env(design)
         n = polish_each(
             seeds, cloud_q, cloud_p, n_cloud, target, design.lengths, design.lower,
-            design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err,
+            design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err, blocked,
         )  # fmt: skip
+        if nearest:
+            slide_best(
+                target, design.lengths, design.lower, design.upper, pi, pf, groups, rows, c,
+                out_q, out_err, blocked, n,
+            )  # fmt: skip
         return out_q[:n], out_err[:n]
-    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, cloud)]
+    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, cloud, nearest)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
     return np.array(qs).reshape(-1, 6), np.array(errs)
 
@@ -521,7 +539,7 @@ def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> 
 def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can."""
     best_q, best_err = None, math.inf
-    for q, err in zip(*_polished(design, p, current), strict=True):
+    for q, err in zip(*_polished(design, p, current, nearest=True), strict=True):
         if err < best_err - 1e-12:
             best_q, best_err = q, float(err)
     if best_q is None and _SCENE.get() is not None:  # nothing clear of the scene near p
