@@ -513,6 +513,32 @@ def test_level2_near_the_base_axis_matches_brute_force(paper):
         assert r.position_error <= best + 1e-7, (p, e)
 
 
+@pytest.mark.slow
+def test_level2_matches_a_brute_force_oracle_inside_and_beyond_the_reach(paper):
+    """40 points no pose reaches, 20 inside the reach sphere and 20 beyond it: level 2 is
+    never farther (by 1e-7 m) than the best of the 8 configurations of 300,000 valid ones
+    nearest the point, each improved by single-joint steps that keep it valid. (Within
+    6 cm of the base axis the library still stops up to 0.06 mm short of such an oracle on
+    some points; see the IK guide.)"""
+    rng = np.random.default_rng(11)
+    q = valid_configurations(paper, rng, 300_000)
+    cloud = handarm.forward(paper, q)[0]
+    reach = float(np.sum(paper.lengths[1:]))
+    for scale in ((0.3, 0.98), (1.02, 1.3)):
+        n_checked = 0
+        while n_checked < 20:
+            v = rng.normal(size=3)
+            p = v / np.linalg.norm(v) * reach * rng.uniform(*scale)
+            e = rng.normal(size=3)
+            r = ik.solve(paper, p, e / np.linalg.norm(e))
+            if r.reached_dof != 2:
+                continue
+            n_checked += 1
+            dist = np.linalg.norm(cloud - p, axis=1)
+            best = min(_coordinate_descent(paper, q[k], p) for k in np.argsort(dist)[:8])
+            assert r.position_error <= best + 1e-7, (p, e, r.position_error - best)
+
+
 def _coordinate_descent(design, q, p, step=0.05, tol=1e-6):
     """Distance from p of a valid configuration reached from q by single-joint steps."""
     q = q.copy()
@@ -580,19 +606,19 @@ def sphere_oracle(design, p, e, starts, rng, n=6000, per_cap=300):
 
 @pytest.mark.slow
 def test_level3_matches_a_sphere_oracle_on_many_targets(paper):
-    """Level 3 on 100 targets (tool points of valid configurations, one in two pushed 3 %
+    """Level 3 on 300 targets (tool points of valid configurations, one in two pushed 3 %
     outwards, random directions, no exact solution): never farther from e than the oracle's
     direction by more than 0.01 degrees. The generating configuration's own direction is
     one of the oracle's starts: it is solvable at p."""
     rng = np.random.default_rng(21)
-    q = valid_configurations(paper, rng, 4000)
+    q = valid_configurations(paper, rng, 12000)
     P, E0 = handarm.forward(paper, q)
     P[::2] *= 1.03
     E = rng.normal(size=P.shape)
     E /= np.linalg.norm(E, axis=1, keepdims=True)
     checked, worse = 0, []
     for i in np.flatnonzero(ik.count_solutions(paper, P, E) == 0):
-        if checked == 100:
+        if checked == 300:
             break
         r = ik.solve(paper, P[i], E[i])
         if r.reached_dof != 3:
@@ -603,5 +629,5 @@ def test_level3_matches_a_sphere_oracle_on_many_targets(paper):
         best = sphere_oracle(paper, P[i], E[i], starts, rng)
         if r.direction_error > best + math.radians(0.01):
             worse.append((i, math.degrees(r.direction_error - best)))
-    assert checked == 100
+    assert checked == 300
     assert not worse, worse
