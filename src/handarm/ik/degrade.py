@@ -210,12 +210,16 @@ def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None
     return list(out_dir[:n])
 
 
+@functools.lru_cache(maxsize=2)
 def _fibonacci_sphere(n: int) -> np.ndarray:
+    """The n directions of a Fibonacci sphere (read-only: cached for every target)."""
     i = np.arange(n) + 0.5
     z = 1.0 - 2.0 * i / n
     phi = math.pi * (1.0 + math.sqrt(5.0)) * i
     r = np.sqrt(1.0 - z * z)
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    out = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    out.flags.writeable = False
+    return out
 
 
 def closest_direction(design, p, e0, seeds=()):
