@@ -261,6 +261,20 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc,
 
 
 @nb.njit(**JIT)
+def _valid_middle(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, q, mdl, sc):
+    """The configuration at u (into q) keeps the limits and the printed-link model.
+
+    Strictly inside a stretch where the limits hold, a configuration the model finds free
+    has free neighbours (its test is strict), so the target has a range of positive width.
+    """
+    return (
+        _configuration(fr, dx, dy, u, elbow_b, elbow_e, a, q)
+        and _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, False)
+        and free_at(q, u, a, mdl[1:7], mdl[7], sc[3], sc[4], sc[5], sc[6])
+    )
+
+
+@nb.njit(**JIT)
 def _near_groups(p, e, a, far):
     """Mask of the groups of piece pairs that can meet for this target (see ``far_thresholds``).
 
@@ -364,6 +378,20 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
                     hi = min(b_hi, t_hi)
                     if lo < hi:
                         elbow_b = 1.0 if eb == 0 else -1.0
+                        if first and not paper and min_width == 0.0:
+                            # whether, not how many: a valid configuration at the middle
+                            # settles it without certifying the stretch
+                            um = 0.5 * (lo + hi)
+                            if _valid_middle(
+                                fr, dx, dy, um, elbow_b, elbow_e, a, lb, lt, q, mdl, sc
+                            ):
+                                if cap > 0:
+                                    for k in range(6):
+                                        out_q[0, k] = q[k]
+                                    out_br[0, 0], out_br[0, 1] = int(sgn), int(elbow_b)
+                                    out_br[0, 2] = int(elbow_e)
+                                    out_iv[0, 0], out_iv[0, 1] = um, um
+                                return 1
                         if paper:
                             sub[0, 0], sub[0, 1] = lo, hi
                             sure[0] = True
