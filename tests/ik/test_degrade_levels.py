@@ -471,20 +471,66 @@ LEVEL2_MISSES = [
     ),
 ]  # fmt: skip
 
+#: A random design of a second oracle check (``random_design(default_rng(103), 103)`` of
+#: the checking session: link lengths 40-74 mm), and (p, e, witness) where level 2 stopped 3.4 and
+#: 7.3 um farther than the witness, and the paper's arm 33 um farther: the nearest point
+#: has joints 1 or 3 at a limit and the wrist straight, which the slide now reaches by
+#: moving single joints.
+RANDOM103 = dict(
+    link_lengths=(0.04907074547253264, 0.045094320018172145, 0.043190437764243736,
+                  0.07370803905170445, 0.07358941197711663, 0.03966030951112132,
+                  0.04800904267104079),
+    hub_radius=0.00996943043487774, beam_width=0.01361036610903393,
+    cable_diameter=0.0013264160037434638, clearance=0.00029628132074842887,
+)  # fmt: skip
+LEVEL2_MISSES_AT_LIMITS = [
+    (
+        None,
+        [-0.016718367618449928, -0.0017285371464782135, -0.1944988202607913],
+        [0.5697731272009999, 0.628529245791749, 0.5294426982252642],
+        [-1.0996723502638812, -1.5212007284671043, -2.124677083393828, -1.479565367951304,
+         -4.135557818400533e-08, 3.5482316226324816e-08],
+    ),
+    (
+        RANDOM103,
+        [-0.030271680963577186, 0.0029556056845395496, -0.14564884468245737],
+        [0.07546234097384312, -0.809181900772879, -0.5826921027063419],
+        [1.4576320787571595, 2.2828114680194114, -2.151896349407646, -2.1303055570705443,
+         2.7614597191368225e-07, -3.166025694528396e-08],
+    ),
+    (
+        RANDOM103,
+        [-0.025405023949336792, -0.007409179064276628, 0.24141424107545903],
+        [0.7724177076598259, -0.23340503145827773, 0.5906716314361984],
+        [0.4280144845259397, -1.8773643964433187, -1.6922427325048741, 1.57926342726958,
+         7.89642702013412e-08, -1.2236228263477312e-10],
+    ),
+]  # fmt: skip
+
 
 @pytest.mark.parametrize(("p", "e", "witness"), LEVEL2_MISSES)
 def test_level2_is_no_farther_than_an_oracles_valid_configuration(paper, p, e, witness):
     """Level 2 gets within 1e-7 m of the distance of the oracle's configuration, which is
     checked valid here (is_valid under the printed-link model)."""
+    _check_level2_against_witness(paper, p, e, witness)
+
+
+@pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_AT_LIMITS)
+def test_level2_reaches_a_nearest_point_with_joints_at_their_limits(paper, design, p, e, witness):
+    """As above, where the witness has joints at their limits and the wrist straight."""
+    _check_level2_against_witness(handarm.ArmDesign(**design) if design else paper, p, e, witness)
+
+
+def _check_level2_against_witness(design, p, e, witness):
     p, e, w = (np.asarray(v, float) for v in (p, e, witness))
-    assert handarm.is_valid(paper, w)
-    best = float(np.linalg.norm(handarm.forward(paper, w)[0] - p))
-    r = ik.solve(paper, p, e / np.linalg.norm(e))
+    assert handarm.is_valid(design, w)
+    best = float(np.linalg.norm(handarm.forward(design, w)[0] - p))
+    r = ik.solve(design, p, e / np.linalg.norm(e))
     assert r.reached_dof == 2
     assert r.position_error <= best + 1e-7
-    p2, _ = handarm.forward(paper, r.solutions)
+    p2, _ = handarm.forward(design, r.solutions)
     np.testing.assert_allclose(p2, np.broadcast_to(r.achieved_position, p2.shape), atol=1e-9)
-    assert handarm.is_valid(paper, r.solutions).all()
+    assert handarm.is_valid(design, r.solutions).all()
     assert r.position_error == pytest.approx(np.linalg.norm(r.achieved_position - p), abs=1e-12)
 
 

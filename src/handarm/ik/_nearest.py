@@ -44,7 +44,7 @@ SLIDE_PATIENCE, SLIDE_GAIN = 100, 1e-10
 _TILTS = (0.5, 1.0, 1.3, 1.5)
 #: Random poll directions per iteration, besides the steered ones.
 _RANDOM_POLLS = 8
-_POLLS = 2 + 2 * 3 * len(_TILTS) + _RANDOM_POLLS
+_POLLS = 2 + 2 * 3 * len(_TILTS) + 12 + _RANDOM_POLLS
 
 
 @nb.njit(**JIT)
@@ -111,7 +111,9 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     first that stays valid and brings the tool point nearer: the last successful one, the
     steepest descent, the descent turned by each of ``_TILTS`` towards either side of each
     direction of the Jacobian's null space (along it the tool point stays put, so these
-    creep along a collision boundary the descent runs into), and ``_RANDOM_POLLS`` random
+    creep along a collision boundary the descent runs into), each joint alone either way
+    (the others held, so that joints at their limits stay there: the nearest point often
+    has two of them at a limit and the wrist straight), and ``_RANDOM_POLLS`` random
     directions. A move doubles the step (up to SLIDE_STEP_MAX), a miss halves it. It ends
     when the step falls below SLIDE_STEP_MIN, after ``iters`` iterations, or when
     SLIDE_PATIENCE iterations gained less than SLIDE_GAIN. Returns (distance, step).
@@ -152,6 +154,10 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
                     for side in (-1.0, 1.0):
                         polls[n] = math.cos(tilt) * polls[descent] + side * math.sin(tilt) * null[k]
                         n += 1
+        for j in range(12):  # single joints: a joint at its limit stays there
+            polls[n] = 0.0
+            polls[n, j % 6] = 1.0 if j < 6 else -1.0
+            n += 1
         for _ in range(_RANDOM_POLLS):
             v = np.random.standard_normal(6)  # noqa: NPY002 (numba's per-thread state)
             polls[n] = v / math.sqrt(np.sum(v * v))
