@@ -47,7 +47,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_points
+from handarm.ik._nearest import polish_each, slide_best, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import PITCH_CIRCLE, YAW_CIRCLE, nearest_on_circles, refine_directions
 from handarm.ik.results import IKResult
@@ -424,6 +424,10 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     return result
 
 
+#: Cloud configurations the seed by seed path (a scene, the paper's model) tests for
+#: validity per one wanted: near an obstacle most of those nearest p may be invalid.
+_SCENE_NEAR_FIRST = 40
+
 #: Configurations drawn for a design's cloud of seeds (about 24,000 of them valid), in
 #: about 5 ms. The closed-form polish reaches a point from most starts; level 2's 32 seeds
 #: are the nearest of enough configurations to hold several basins of the distance.
@@ -490,7 +494,7 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False)
         # the nearest that are valid (in a scene, many near p may meet an obstacle)
         dist = np.linalg.norm(cloud_p - p, axis=1)
         wanted = _NEAREST_SEEDS if nearest else _SEEDS
-        k = min(NEAR_FIRST * wanted, len(dist) - 1)
+        k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
         closest = np.argpartition(dist, k)[:k]
         near = cloud_q[closest[np.argsort(dist[closest])]]
         # lazily: a validity test costs ~25 us
