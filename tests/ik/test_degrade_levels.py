@@ -471,11 +471,10 @@ LEVEL2_MISSES = [
     ),
 ]  # fmt: skip
 
-#: A random design of a second oracle check (``random_design(default_rng(103), 103)`` of
-#: the checking session: link lengths 40-74 mm), and (p, e, witness) where level 2 stopped 3.4 and
-#: 7.3 um farther than the witness, and the paper's arm 33 um farther: the nearest point
-#: has joints 1 or 3 at a limit and the wrist straight, which the slide now reaches by
-#: moving single joints.
+#: A random design of a second oracle check (link lengths 40-74 mm), and (p, e, witness)
+#: where level 2 stopped 3.4 and 7.3 um farther than the witness, and on the paper's arm
+#: 33 um farther: the witnesses have the wrist straight (joints 5 and 6 near 0), which the
+#: slide now reaches by moving single joints.
 RANDOM103 = dict(
     link_lengths=(0.04907074547253264, 0.045094320018172145, 0.043190437764243736,
                   0.07370803905170445, 0.07358941197711663, 0.03966030951112132,
@@ -483,7 +482,7 @@ RANDOM103 = dict(
     hub_radius=0.00996943043487774, beam_width=0.01361036610903393,
     cable_diameter=0.0013264160037434638, clearance=0.00029628132074842887,
 )  # fmt: skip
-LEVEL2_MISSES_AT_LIMITS = [
+LEVEL2_MISSES_STRAIGHT_WRIST = [
     (
         None,
         [-0.016718367618449928, -0.0017285371464782135, -0.1944988202607913],
@@ -515,9 +514,9 @@ def test_level2_is_no_farther_than_an_oracles_valid_configuration(paper, p, e, w
     _check_level2_against_witness(paper, p, e, witness)
 
 
-@pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_AT_LIMITS)
-def test_level2_reaches_a_nearest_point_with_joints_at_their_limits(paper, design, p, e, witness):
-    """As above, where the witness has joints at their limits and the wrist straight."""
+@pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_STRAIGHT_WRIST)
+def test_level2_reaches_a_nearest_point_with_a_straight_wrist(paper, design, p, e, witness):
+    """As above, where the witness has the wrist straight (joints 5 and 6 near 0)."""
     _check_level2_against_witness(handarm.ArmDesign(**design) if design else paper, p, e, witness)
 
 

@@ -112,11 +112,12 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     steepest descent, the descent turned by each of ``_TILTS`` towards either side of each
     direction of the Jacobian's null space (along it the tool point stays put, so these
     creep along a collision boundary the descent runs into), each joint alone either way
-    (the others held, so that joints at their limits stay there: the nearest point often
-    has two of them at a limit and the wrist straight), and ``_RANDOM_POLLS`` random
-    directions. A move doubles the step (up to SLIDE_STEP_MAX), a miss halves it. It ends
-    when the step falls below SLIDE_STEP_MIN, after ``iters`` iterations, or when
-    SLIDE_PATIENCE iterations gained less than SLIDE_GAIN. Returns (distance, step).
+    (the others held, so that a joint at its limit stays there: near the base axis the
+    nearest point often has the wrist straight, sometimes joints 1 and 3 at their limits),
+    and ``_RANDOM_POLLS`` random directions. A move doubles the step (up to
+    SLIDE_STEP_MAX), a miss halves it. It ends when the step falls below SLIDE_STEP_MIN,
+    after ``iters`` iterations, or when SLIDE_PATIENCE iterations gained less than
+    SLIDE_GAIN. Returns (distance, step).
     """
     p = np.empty(3)
     jac = np.empty((3, 6))

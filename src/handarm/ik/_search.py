@@ -124,9 +124,9 @@ def to_boundary(p, psi, e0, good, tol, a, mdl, sc, scene, out):
 #: Turns (rad) off the tangent of the circle round e0, towards e0, of the extra trials of a
 #: pattern search (both sides). Where the boundary of the solvable set meets that circle at
 #: an angle narrower than the ring's spacing (7.5 degrees), no ring direction lies in the
-#: wedge between them that is both solvable and closer; stopping there cost up to 0.011
-#: degrees on one of 100 targets of a sphere oracle (the loss grows with the square of the
-#: wedge's angle, so below 0.5 degrees it is about 1e-4 of that).
+#: wedge between them that is both solvable and closer; stopping there cost 0.011 degrees
+#: on one of the first 100 targets of the slow sphere-oracle test (the loss grows with the
+#: square of the wedge's angle, so below 0.5 degrees it is about 1e-4 of that).
 TANGENT_TURNS = (
     math.radians(0.5), math.radians(1.0), math.radians(2.0), math.radians(4.0)
 )  # fmt: skip
