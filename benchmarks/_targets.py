@@ -9,13 +9,21 @@ import numpy as np
 import handarm
 
 
-def fk_targets(design: handarm.ArmDesign, rng: np.random.Generator, n: int):
-    """(P, E), shape (n, 3) each: the tool poses of n random valid configurations."""
+def valid_configurations(design: handarm.ArmDesign, rng, n: int, batch: int) -> np.ndarray:
+    """n configurations uniform in the joint limits that ``is_valid`` accepts, (n, 6).
+
+    Drawn ``batch`` at a time until there are enough.
+    """
     found = []
     while sum(len(q) for q in found) < n:
-        q = rng.uniform(design.lower, design.upper, (8 * n, 6))
+        q = rng.uniform(design.lower, design.upper, (batch, 6))
         found.append(q[handarm.is_valid(design, q)])
-    return handarm.forward(design, np.concatenate(found)[:n])
+    return np.concatenate(found)[:n]
+
+
+def fk_targets(design: handarm.ArmDesign, rng: np.random.Generator, n: int):
+    """(P, E), shape (n, 3) each: the tool poses of n random valid configurations."""
+    return handarm.forward(design, valid_configurations(design, rng, n, 8 * n))
 
 
 def parser(doc: str, targets: int, help: str | None = None) -> argparse.ArgumentParser:

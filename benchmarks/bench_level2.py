@@ -19,7 +19,7 @@ import math
 import time
 
 import numpy as np
-from _targets import parser
+from _targets import parser, valid_configurations
 from tqdm import tqdm
 
 import handarm
@@ -103,11 +103,7 @@ def main(argv=None) -> None:
     rng = np.random.default_rng(args.seed)
     ik.solve(design, [0.5, 0.0, 0.0], [1.0, 0.0, 0.0])  # compile / load the kernels
     cases = targets(design, rng, args.targets)
-    found = []
-    while sum(len(c) for c in found) < args.cloud:
-        q = rng.uniform(design.lower, design.upper, (args.cloud, 6))
-        found.append(q[handarm.is_valid(design, q)])
-    cloud_q = np.concatenate(found)[: args.cloud]
+    cloud_q = valid_configurations(design, rng, args.cloud, args.cloud)
     cloud_p = handarm.forward(design, cloud_q)[0]
     rows = {}
     for kind, p, e in tqdm(cases, desc="level 2 vs oracle", unit="target"):

@@ -58,6 +58,13 @@ def valid_one(q, a, lower, upper, pi, pf, groups, rows, c, sc):
 
 
 @nb.njit(**JIT)
+def _distance(q, target, a, p, jac):
+    """|tool point of q - target|; p and jac get the tool point and its Jacobian."""
+    tool_point_and_jacobian(q, a, p, jac)
+    return math.sqrt((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2 + (p[2] - target[2]) ** 2)
+
+
+@nb.njit(**JIT)
 def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc, out):
     """A valid configuration near the valid q0 whose tool point is nearer target, into out.
 
@@ -88,19 +95,7 @@ def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc
         for j in range(6):
             q[j] = q[j] + lo * (x[j] - q[j])
     out[:] = q
-    pose = np.empty(8)
-    tool_pose(q, a, pose)
-    dist = math.sqrt(
-        (pose[0] - target[0]) ** 2 + (pose[1] - target[1]) ** 2 + (pose[2] - target[2]) ** 2
-    )
-    return dist, blocked
-
-
-@nb.njit(**JIT)
-def _distance(q, target, a, p, jac):
-    """|tool point of q - target|; p and jac get the tool point and its Jacobian."""
-    tool_point_and_jacobian(q, a, p, jac)
-    return math.sqrt((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2 + (p[2] - target[2]) ** 2)
+    return _distance(q, target, a, np.empty(3), np.empty((3, 6))), blocked
 
 
 @nb.njit(**JIT)
@@ -119,9 +114,8 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     after ``iters`` iterations, or when SLIDE_PATIENCE iterations gained less than
     SLIDE_GAIN. Returns (distance, step).
     """
-    p = np.empty(3)
-    jac = np.empty((3, 6))
-    scratch_jac = np.empty((3, 6))
+    p, trial_p = np.empty(3), np.empty(3)
+    jac, trial_jac = np.empty((3, 6)), np.empty((3, 6))
     trial = np.empty(6)
     polls = np.empty((_POLLS, 6))
     last = np.zeros(6)
@@ -135,7 +129,6 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
             if mark - f < SLIDE_GAIN:
                 break
             mark, mark_it = f, it
-        f = _distance(q, target, a, p, jac)
         g = np.zeros(6)
         for j in range(6):
             for k in range(3):
@@ -167,15 +160,16 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
         for k in range(n):
             for j in range(6):
                 trial[j] = min(upper[j], max(lower[j], q[j] + step * polls[k, j]))
-            ft = _distance(trial, target, a, p, scratch_jac)
+            ft = _distance(trial, target, a, trial_p, trial_jac)
             if ft < f - 1e-13 and valid_one(trial, a, lower, upper, pi, pf, groups, rows, c, sc):
                 q[:] = trial
+                p[:], jac[:] = trial_p, trial_jac
                 f = ft
                 last[:] = polls[k]
                 has_last = moved = True
                 break
         step = min(2.0 * step, SLIDE_STEP_MAX) if moved else 0.5 * step
-    return _distance(q, target, a, p, jac), step
+    return f, step
 
 
 @nb.njit(**JIT)

@@ -385,13 +385,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
                             if _valid_middle(
                                 fr, dx, dy, um, elbow_b, elbow_e, a, lb, lt, q, mdl, sc
                             ):
-                                if cap > 0:
-                                    for k in range(6):
-                                        out_q[0, k] = q[k]
-                                    out_br[0, 0], out_br[0, 1] = int(sgn), int(elbow_b)
-                                    out_br[0, 2] = int(elbow_e)
-                                    out_iv[0, 0], out_iv[0, 1] = um, um
-                                return 1
+                                return 1  # (``_has_range``, the one caller, keeps no row)
                         if paper:
                             sub[0, 0], sub[0, 1] = lo, hi
                             sure[0] = True

@@ -483,6 +483,11 @@ def _start_seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
     return seeds
 
 
+def _seed_count(nearest: bool) -> int:
+    """Cloud configurations polished as seeds: level 2's (``nearest``) or level 3's."""
+    return _NEAREST_SEEDS if nearest else _SEEDS
+
+
 def _seeds(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False) -> list:
     """Valid starting configurations: the stretched arm aimed at p, current, cloud points.
 
@@ -493,7 +498,7 @@ def _seeds(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False)
     if len(cloud_q):
         # the nearest that are valid (in a scene, many near p may meet an obstacle)
         dist = np.linalg.norm(cloud_p - p, axis=1)
-        wanted = _NEAREST_SEEDS if nearest else _SEEDS
+        wanted = _seed_count(nearest)
         k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
         closest = np.argpartition(dist, k)[:k]
         near = cloud_q[closest[np.argsort(dist[closest])]]
@@ -518,7 +523,7 @@ def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=Fal
             cloud_q, cloud_p = _position_cloud(design)
         else:
             cloud_q, cloud_p = np.zeros((0, 6)), np.zeros((0, 3))
-        n_cloud = min(_NEAREST_SEEDS if nearest else _SEEDS, len(cloud_q))
+        n_cloud = min(_seed_count(nearest), len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
         blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
