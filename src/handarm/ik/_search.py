@@ -252,9 +252,23 @@ def _circle_side(kinds, s, yaw, pitch):
 
 
 @nb.njit(**JIT)
+def _first_in(kind, side, th0, yaw, pitch, pole, x0, x1, n, p, psi, a, mdl, sc, scene, d):
+    """The first of n + 1 evenly spaced offsets from x0 to x1 (magnitudes) that is solvable.
+
+    Returns its index (0..n), or -1 if none is.
+    """
+    for i in range(n + 1):
+        x = x0 + (x1 - x0) * i / n
+        circle_direction(kind, yaw, pitch, pole, th0 + side * x, d)
+        if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+            return i
+    return -1
+
+
+@nb.njit(**JIT)
 def nearest_on_circles(
     p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
-    mdl, scene, out_dir, stats,
+    lower_r, upper_r, sub, mdl, scene, out_dir, stats,
 ):  # fmt: skip
     """The nearest solvable direction on each side of each level-4 circle (one call).
 
@@ -264,17 +278,32 @@ def nearest_on_circles(
     its first solvable direction (the rest of the side is farther). With ``prune`` a side
     stops as soon as nothing it could still find costs less than the cheapest grid direction
     found so far on any side (bisection moves it by less than one grid step, ``fine``), so
-    every side pays only for the directions up to the best answer. The sides found are
-    refined by bisection to the boundary (``tol``). Writes the directions to ``out_dir``;
-    returns how many. ``stats[0]`` counts the directions tested on the grid.
+    every side pays only for the directions up to the best answer.
+
+    Slivers. A solvable arc narrower than the grid (a joint at its limit, the wrist nearly
+    straight) can fall between two grid directions. Every grid direction that is not
+    solvable is tested again with the limits widened to ``lower_r``, ``upper_r``: such arcs
+    widen with the limits, so a grid direction solvable only then is a suspect, and the two
+    grid steps round it are scanned ``sub`` times finer (those that can still beat the best,
+    nearest first). The first solvable direction of a scan is a hit like a grid one.
+
+    The hits are refined by bisection to the boundary (``tol``). Writes the directions to
+    ``out_dir``; returns how many. ``stats[0]`` counts the directions tested on the grid,
+    ``stats[1]`` the suspects scanned.
     """
     sc = search_scratch(lower, upper, mdl, scene[3], scene[4].shape[0])
+    sc_r = search_scratch(lower_r, upper_r, mdl, scene[3], scene[4].shape[0])
     cos_pitch = math.cos(pitch)
     n_sides = 2 * kinds.shape[0]
     open_ = np.ones(n_sides, np.bool_)
-    hit_x = np.zeros(n_sides)
-    hits = np.empty(n_sides, np.int64)
+    cap = out_dir.shape[0]
+    hit_s = np.empty(cap, np.int64)
+    hit_good = np.empty(cap)
+    hit_bad = np.empty(cap)
     n_hits = 0
+    n_sus = 0
+    sus_s = np.empty(offsets.shape[0], np.int64)
+    sus_k = np.empty(offsets.shape[0], np.int64)
     best = math.inf
     d = np.empty(3)
     start = 0
@@ -291,23 +320,51 @@ def nearest_on_circles(
                 stats[0] += 1
                 circle_direction(kind, yaw, pitch, pole, th0 + side * offsets[k], d)
                 if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
-                    hit_x[s] = side * offsets[k]
-                    hits[n_hits] = s
+                    hit_s[n_hits] = s
+                    hit_good[n_hits] = side * offsets[k]
+                    hit_bad[n_hits] = side * (offsets[k] - fine)
                     n_hits += 1
                     best = min(best, circle_cost(kind, offsets[k], cos_pitch))
                     open_[s] = False
                     break
+                if n_sus < sus_s.shape[0] and solvable(
+                    p, d[0], d[1], d[2], psi, a, mdl, sc_r, scene
+                ):
+                    sus_s[n_sus] = s
+                    sus_k[n_sus] = k
+                    n_sus += 1
         start = stop
         if start >= offsets.shape[0] or not open_.any():
             break
+    # the suspects, nearest first: scan the two grid steps round each
+    order = np.argsort(offsets[sus_k[:n_sus]])
+    for o in range(n_sus):
+        if n_hits >= cap:
+            break
+        s, k = sus_s[order[o]], sus_k[order[o]]
+        kind, side, th0 = _circle_side(kinds, s, yaw, pitch)
+        x0 = offsets[k] - fine
+        if prune and circle_cost(kind, max(x0, 0.0), cos_pitch) > best:
+            continue
+        stats[1] += 1
+        i = _first_in(
+            kind, side, th0, yaw, pitch, pole, x0, offsets[k] + fine, 2 * sub, p, psi, a, mdl,
+            sc, scene, d,
+        )  # fmt: skip
+        if i > 0:  # (i == 0 is the grid direction before, not solvable, or the start)
+            x = x0 + 2.0 * fine * i / (2 * sub)
+            hit_s[n_hits] = s
+            hit_good[n_hits] = side * x
+            hit_bad[n_hits] = side * (x - fine / sub)
+            n_hits += 1
+            best = min(best, circle_cost(kind, x, cos_pitch))
     n = 0
     for h in range(n_hits):
-        s = hits[h]
+        s = hit_s[h]
         kind, side, th0 = _circle_side(kinds, s, yaw, pitch)
-        good = hit_x[s]
-        if prune and circle_cost(kind, max(abs(good) - fine, 0.0), cos_pitch) > best:
+        good, bad = hit_good[h], hit_bad[h]
+        if prune and circle_cost(kind, max(abs(good) - abs(good - bad), 0.0), cos_pitch) > best:
             continue
-        bad = good - side * fine
         while abs(good - bad) > tol:
             mid = 0.5 * (good + bad)
             circle_direction(kind, yaw, pitch, pole, th0 + mid, d)

@@ -184,6 +184,15 @@ def _search_scene(design: ArmDesign) -> tuple:
 #: The level-4 scan's grid of offsets along a circle (rad), and where its blocks end.
 _GRID = _FINE_STEP * np.arange(1, round(math.pi / _FINE_STEP) + 1)
 _GRID_BLOCKS = _BLOCK_ENDS[_BLOCK_ENDS < len(_GRID)].astype(np.int64)
+#: rad: a level-4 grid direction solvable only with every joint limit widened by this much is
+#: a suspect of a solvable arc narrower than the grid (one independent oracle check found an
+#: arc of 0.018 deg, q1 at its limit and the wrist nearly straight, 1.28 deg nearer e than
+#: the grid's answer; widened by 1 deg that arc is 0.61 deg wide and holds a grid direction).
+_SLIVER_WIDEN = math.radians(1.0)
+#: The grid steps round a suspect are scanned this many times finer (0.0078 deg apart).
+_SLIVER_SUB = 32
+#: Hits (grid and suspects) one level-4 circle may hold before refinement.
+_CIRCLE_HITS = 16
 
 
 def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None):
@@ -192,22 +201,34 @@ def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None
     ``kinds``: which circles (``_search.PITCH_CIRCLE`` through e's yaw at every pitch,
     ``_search.YAW_CIRCLE`` at e's pitch), from e's pitch and yaw. Every side goes out on a
     0.25-degree grid in blocks, all sides in turn; with ``prune`` a side stops as soon as it
-    cannot beat the cheapest grid direction found so far; the sides left are bisected to the
-    boundary (``ANGLE_TOL``). See ``handarm.ik._search.nearest_on_circles``. ``stats``: a
-    list that gets the number of grid directions tested.
+    cannot beat the cheapest grid direction found so far. Grid directions solvable only with
+    every limit widened by ``_SLIVER_WIDEN`` are suspects of an arc narrower than the grid:
+    the grid steps round them are scanned ``_SLIVER_SUB`` times finer. The hits left are
+    bisected to the boundary (``ANGLE_TOL``). See ``handarm.ik._search.nearest_on_circles``.
+    ``stats``: a list that gets the number of grid directions tested and of suspects scanned.
     """
     kinds = np.asarray(kinds, np.int64)
-    out_dir = np.empty((2 * len(kinds), 3))
-    counts = np.zeros(1, np.int64)
+    out_dir = np.empty((_CIRCLE_HITS * len(kinds), 3))
+    counts = np.zeros(2, np.int64)
+    lower_r, upper_r = _widened_limits(design)
     n = nearest_on_circles(
         np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p), kinds,
         float(e_yaw), float(e_pitch), _POLE, bool(prune), _GRID, _GRID_BLOCKS, _FINE_STEP,
-        ANGLE_TOL, design.lengths, design.lower, design.upper, S._model(design, 0.0),
-        _search_scene(design), out_dir, counts,
+        ANGLE_TOL, design.lengths, design.lower, design.upper, lower_r, upper_r, _SLIVER_SUB,
+        S._model(design, 0.0), _search_scene(design), out_dir, counts,
     )  # fmt: skip
     if stats is not None:
         stats.append(int(counts[0]))
+        stats.append(int(counts[1]))
     return list(out_dir[:n])
+
+
+def _widened_limits(design) -> tuple[np.ndarray, np.ndarray]:
+    """The joint limits widened by ``_SLIVER_WIDEN``, within +-pi (the level-4 suspects)."""
+    return (
+        np.maximum(design.lower - _SLIVER_WIDEN, -math.pi),
+        np.minimum(design.upper + _SLIVER_WIDEN, math.pi),
+    )
 
 
 @functools.lru_cache(maxsize=2)
