@@ -528,6 +528,25 @@ LEVEL2_MISSES_STRAIGHT_WRIST = [
 ]  # fmt: skip
 
 
+#: (p, e, witness) on the paper's arm where the second oracle check's longer local search
+#: ended 0.083 mm nearer p than level 2 (0.143 mm away): the slides stopped after 100
+#: iterations that gained under 1e-10 m, and now crawl on (1,000 iterations of patience).
+LEVEL2_MISSES_LONG_SLIDE = [
+    (
+        [-0.042458041445129574, 0.016635851426244828, 0.15006504233658088],
+        [-0.4634411170691718, 0.2619289043182851, 0.8465314997637717],
+        [1.4443419022671031, 1.2496971311960183, 1.950893019520331, 1.5483916058497138,
+         -0.013454221898122556, -0.00034026048085362395],
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("p", "e", "witness"), LEVEL2_MISSES_LONG_SLIDE)
+def test_level2_slides_on_along_a_contact_it_crawls_on(paper, p, e, witness):
+    """As below, where the slide must keep going through hundreds of small gains."""
+    _check_level2_against_witness(paper, p, e, witness)
+
+
 @pytest.mark.parametrize(("p", "e", "witness"), LEVEL2_MISSES)
 def test_level2_is_no_farther_than_an_oracles_valid_configuration(paper, p, e, witness):
     """Level 2 gets within 1e-7 m of the distance of the oracle's configuration, which is
