@@ -252,20 +252,6 @@ def _circle_side(kinds, s, yaw, pitch):
 
 
 @nb.njit(**JIT)
-def _first_in(kind, side, th0, yaw, pitch, pole, x0, x1, n, p, psi, a, mdl, sc, scene, d):
-    """The first of n + 1 evenly spaced offsets from x0 to x1 (magnitudes) that is solvable.
-
-    Returns its index (0..n), or -1 if none is.
-    """
-    for i in range(n + 1):
-        x = x0 + (x1 - x0) * i / n
-        circle_direction(kind, yaw, pitch, pole, th0 + side * x, d)
-        if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
-            return i
-    return -1
-
-
-@nb.njit(**JIT)
 def nearest_on_circles(
     p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
     lower_r, upper_r, sub, mdl, scene, out_dir, stats,
@@ -283,13 +269,13 @@ def nearest_on_circles(
     Slivers. A solvable arc narrower than the grid (a joint at its limit, the wrist nearly
     straight) can fall between two grid directions. Every grid direction that is not
     solvable is tested again with the limits widened to ``lower_r``, ``upper_r``: such arcs
-    widen with the limits, so a grid direction solvable only then is a suspect, and the two
-    grid steps round it are scanned ``sub`` times finer (those that can still beat the best,
-    nearest first). The first solvable direction of a scan is a hit like a grid one.
+    widen with the limits, so a grid direction solvable only then is a suspect. Each run of
+    neighbouring suspects is scanned ``sub`` times finer from the grid step before it to the
+    one after it, nearest run first, up to its first solvable direction (a hit like a grid
+    one) or as long as it can still beat the best hit. ``stats[1]`` counts the runs scanned.
 
     The hits are refined by bisection to the boundary (``tol``). Writes the directions to
-    ``out_dir``; returns how many. ``stats[0]`` counts the directions tested on the grid,
-    ``stats[1]`` the suspects scanned.
+    ``out_dir``; returns how many. ``stats[0]`` counts the directions tested on the grid.
     """
     sc = search_scratch(lower, upper, mdl, scene[3], scene[4].shape[0])
     sc_r = search_scratch(lower_r, upper_r, mdl, scene[3], scene[4].shape[0])
@@ -336,28 +322,41 @@ def nearest_on_circles(
         start = stop
         if start >= offsets.shape[0] or not open_.any():
             break
-    # the suspects, nearest first: scan the two grid steps round each
-    order = np.argsort(offsets[sus_k[:n_sus]])
+    # the suspects' runs of neighbouring grid directions, nearest first: scan from the grid
+    # step before a run to the one after it, until the first solvable direction
+    order = np.argsort(sus_s[:n_sus] * (offsets.shape[0] + 2) + sus_k[:n_sus])
+    run_s = np.empty(n_sus, np.int64)
+    run_a = np.empty(n_sus, np.int64)
+    run_b = np.empty(n_sus, np.int64)
+    n_runs = 0
     for o in range(n_sus):
+        s, k = sus_s[order[o]], sus_k[order[o]]
+        if n_runs > 0 and run_s[n_runs - 1] == s and run_b[n_runs - 1] == k - 1:
+            run_b[n_runs - 1] = k
+        else:
+            run_s[n_runs], run_a[n_runs], run_b[n_runs] = s, k, k
+            n_runs += 1
+    for o in np.argsort(offsets[run_a[:n_runs]]):
         if n_hits >= cap:
             break
-        s, k = sus_s[order[o]], sus_k[order[o]]
+        s = run_s[o]
         kind, side, th0 = _circle_side(kinds, s, yaw, pitch)
-        x0 = offsets[k] - fine
-        if prune and circle_cost(kind, max(x0, 0.0), cos_pitch) > best:
-            continue
+        x0 = offsets[run_a[o]] - fine  # the grid direction before: not solvable (or e)
+        n_fine = (run_b[o] - run_a[o] + 2) * sub
+        step = fine / sub
         stats[1] += 1
-        i = _first_in(
-            kind, side, th0, yaw, pitch, pole, x0, offsets[k] + fine, 2 * sub, p, psi, a, mdl,
-            sc, scene, d,
-        )  # fmt: skip
-        if i > 0:  # (i == 0 is the grid direction before, not solvable, or the start)
-            x = x0 + 2.0 * fine * i / (2 * sub)
-            hit_s[n_hits] = s
-            hit_good[n_hits] = side * x
-            hit_bad[n_hits] = side * (x - fine / sub)
-            n_hits += 1
-            best = min(best, circle_cost(kind, x, cos_pitch))
+        for i in range(1, n_fine + 1):
+            x = x0 + i * step
+            if prune and circle_cost(kind, x - step, cos_pitch) > best:
+                break
+            circle_direction(kind, yaw, pitch, pole, th0 + side * x, d)
+            if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+                hit_s[n_hits] = s
+                hit_good[n_hits] = side * x
+                hit_bad[n_hits] = side * (x - step)
+                n_hits += 1
+                best = min(best, circle_cost(kind, x, cos_pitch))
+                break
     n = 0
     for h in range(n_hits):
         s = hit_s[h]
