@@ -547,6 +547,56 @@ def test_level2_slides_on_along_a_contact_it_crawls_on(paper, p, e, witness):
     _check_level2_against_witness(paper, p, e, witness)
 
 
+#: (design, p, e, witness) where the slide zig-zagged along a curved contact and stopped
+#: short: the three misses of ``benchmarks/bench_level2.py --targets 30`` near the base axis
+#: (0.047, 0.0008 and 0.0015 mm farther than its oracle's configuration, paper's arm) and two
+#: of the second oracle check's on RANDOM103 (0.011 and 0.046 mm). Pattern moves along the
+#: slide's net displacement (``handarm.ik._nearest._TRENDS``) reach them.
+LEVEL2_MISSES_VALLEY = [
+    (
+        None,
+        [-0.05661610521975304, 0.014519430413132847, 0.17461340432314285],
+        [0.24774541302244948, -0.8321218084343028, -0.4961809208891061],
+        [2.1050842897440174, 0.46873878869217755, 2.3353385230398893, 1.5539423654119058,
+         -0.02836215274966222, -8.07895843761947e-08],
+    ),
+    (
+        None,
+        [-0.026083523252115742, -0.00430313805997371, -0.178515209109238],
+        [-0.752732924683861, -0.5063038736112011, 0.4207725414795666],
+        [-1.19037668427777, -1.4830836571864026, -2.038928640231093, -1.4887286681730127,
+         1.5294401472131824e-07, -1.831504844043793e-08],
+    ),
+    (
+        None,
+        [0.0006812527962160904, -0.004754773624386797, 0.18848050424814256],
+        [-0.6138938343902539, -0.4953723164780421, 0.6146060756003068],
+        [-2.3561944862780444, 1.3757455757013033, 2.32708624233796, 1.4537784387420272,
+         1.0575453832462853e-07, -5.358755154850721e-08],
+    ),
+    (
+        RANDOM103,
+        [-0.01636585242165005, 0.014431193343006576, -0.16668193114888188],
+        [-0.6353764853558381, -0.18935158249639988, -0.7486272103410158],
+        [-0.42227806263389933, 1.6262364027603495, 1.9376343142349681, -1.5751050391342885,
+         6.510898325226521e-07, -7.668750337953058e-08],
+    ),
+    (
+        RANDOM103,
+        [0.005234531873934079, -0.006054017981713301, 0.16450808633682804],
+        [0.7104411971367837, -0.5967469835765457, 0.3730500542864827],
+        [-2.356194490192345, 0.9772308615075198, 2.356194490192345, 1.5768219004852686,
+         1.1537828984027983e-06, -1.1539087301137745e-07],
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_VALLEY)
+def test_level2_follows_a_curved_contact_to_its_end(paper, design, p, e, witness):
+    """As below, where moves along single polls zig-zag and stop short."""
+    _check_level2_against_witness(handarm.ArmDesign(**design) if design else paper, p, e, witness)
+
+
 @pytest.mark.parametrize(("p", "e", "witness"), LEVEL2_MISSES)
 def test_level2_is_no_farther_than_an_oracles_valid_configuration(paper, p, e, witness):
     """Level 2 gets within 1e-7 m of the distance of the oracle's configuration, which is
