@@ -267,9 +267,10 @@ def nearest_on_circles(
     every side pays only for the directions up to the best answer.
 
     Slivers. A solvable arc narrower than the grid (a joint at its limit, the wrist nearly
-    straight) can fall between two grid directions. Every grid direction that is not
-    solvable is tested again with the limits widened to ``lower_r``, ``upper_r``: such arcs
-    widen with the limits, so a grid direction solvable only then is a suspect. Each run of
+    straight) can fall between two grid directions. Every grid direction is tested with the
+    limits widened to ``lower_r``, ``upper_r`` first (what that rules out, as most
+    directions, the limits rule out too), then as it is: arcs widen with the limits, so a
+    grid direction solvable only when widened is a suspect. Each run of
     neighbouring suspects is scanned ``sub`` times finer from the grid step before it to the
     one after it, nearest run first, up to its first solvable direction (a hit like a grid
     one) or as long as it can still beat the best hit. ``stats[1]`` counts the runs scanned.
@@ -305,6 +306,9 @@ def nearest_on_circles(
             for k in range(start, stop):
                 stats[0] += 1
                 circle_direction(kind, yaw, pitch, pole, th0 + side * offsets[k], d)
+                # widened first: what it rules out (most directions) the limits rule out too
+                if not solvable(p, d[0], d[1], d[2], psi, a, mdl, sc_r, scene):
+                    continue
                 if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
                     hit_s[n_hits] = s
                     hit_good[n_hits] = side * offsets[k]
@@ -313,9 +317,7 @@ def nearest_on_circles(
                     best = min(best, circle_cost(kind, offsets[k], cos_pitch))
                     open_[s] = False
                     break
-                if n_sus < sus_s.shape[0] and solvable(
-                    p, d[0], d[1], d[2], psi, a, mdl, sc_r, scene
-                ):
+                if n_sus < sus_s.shape[0]:
                     sus_s[n_sus] = s
                     sus_k[n_sus] = k
                     n_sus += 1
