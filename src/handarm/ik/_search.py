@@ -270,10 +270,10 @@ def nearest_on_circles(
     straight) can fall between two grid directions. Every grid direction is tested with the
     limits widened to ``lower_r``, ``upper_r`` first (what that rules out, as most
     directions, the limits rule out too), then as it is: arcs widen with the limits, so a
-    grid direction solvable only when widened is a suspect. Each run of
-    neighbouring suspects is scanned ``sub`` times finer from the grid step before it to the
-    one after it, nearest run first, up to its first solvable direction (a hit like a grid
-    one) or as long as it can still beat the best hit. ``stats[1]`` counts the runs scanned.
+    grid direction solvable only when widened is a suspect. Each run of neighbouring
+    suspects is scanned ``sub`` times finer from the grid step before it to the one after
+    it, nearest run first, up to its first solvable direction (a hit like a grid one) or as
+    long as it can still beat the best hit. ``stats[1]`` counts the runs scanned.
 
     The hits are refined by bisection to the boundary (``tol``). Writes the directions to
     ``out_dir``; returns how many. ``stats[0]`` counts the directions tested on the grid.

@@ -189,7 +189,7 @@ _GRID_BLOCKS = _BLOCK_ENDS[_BLOCK_ENDS < len(_GRID)].astype(np.int64)
 #: arc of 0.018 deg, q1 at its limit and the wrist nearly straight, 1.28 deg nearer e than
 #: the grid's answer; widened by 1 deg that arc is 0.61 deg wide and holds a grid direction).
 _SLIVER_WIDEN = math.radians(1.0)
-#: The grid steps round a suspect are scanned this many times finer (0.0078 deg apart).
+#: A run of suspects is scanned this many times finer than the grid (0.0078 deg apart).
 _SLIVER_SUB = 32
 #: Hits (grid and suspects) one level-4 circle may hold before refinement.
 _CIRCLE_HITS = 16
@@ -203,9 +203,9 @@ def _nearest_on_circles(design, p, e_yaw, e_pitch, kinds, prune=True, stats=None
     0.25-degree grid in blocks, all sides in turn; with ``prune`` a side stops as soon as it
     cannot beat the cheapest grid direction found so far. Grid directions solvable only with
     every limit widened by ``_SLIVER_WIDEN`` are suspects of an arc narrower than the grid:
-    the grid steps round them are scanned ``_SLIVER_SUB`` times finer. The hits left are
-    bisected to the boundary (``ANGLE_TOL``). See ``handarm.ik._search.nearest_on_circles``.
-    ``stats``: a list that gets the number of grid directions tested and of suspects scanned.
+    each run of them is scanned ``_SLIVER_SUB`` times finer. The hits left are bisected to
+    the boundary (``ANGLE_TOL``). See ``handarm.ik._search.nearest_on_circles``. ``stats``:
+    a list that gets the number of grid directions tested and of suspect runs scanned.
     """
     kinds = np.asarray(kinds, np.int64)
     out_dir = np.empty((_CIRCLE_HITS * len(kinds), 3))
