@@ -103,6 +103,85 @@ def test_level4_finds_a_solvable_arc_narrower_than_its_grid(paper):
     assert r.direction_error <= angle(w, e) + math.radians(0.01)
 
 
+#: (p, e, a solvable direction keeping e's pitch) near the reach sphere, the arm nearly
+#: stretched, from a second oracle check (2026-11-27, seed 11): the solvable directions form
+#: a cap of a few tenths of a degree that e's yaw circle crosses within the grid's first
+#: step. The first came back as level 3 (0.087 degrees), the second as level 4 on the pitch
+#: circle 0.016 degrees worse.
+LEVEL4_SMALL_CAPS = [
+    (
+        [0.04127951996961739, -0.2971445846377679, 0.0006467478227108409],
+        [0.13534544266489287, -0.9907721022299195, 0.00722859548945272],
+        [0.13698227796729656, -0.9905471230235038, 0.00722859548945272],
+    ),
+    (
+        [0.20646180703071765, 0.21764782500388458, -0.00012598394238309005],
+        [0.686419450761801, 0.7271047507203492, -0.012125143123546126],
+        [0.6877874669887463, 0.7258108439238407, -0.012125143123546126],
+    ),
+]
+
+
+@pytest.mark.parametrize(("p", "e", "witness"), LEVEL4_SMALL_CAPS)
+def test_level4_finds_an_arc_in_a_small_cap_near_the_reach(paper, p, e, witness):
+    """Directions of valid configurations that reach p, projected onto the circles, find
+    the arc (its witness checked solvable here, count_solutions)."""
+    p, e, w = (np.asarray(v, float) for v in (p, e, witness))
+    e, w = e / np.linalg.norm(e), w / np.linalg.norm(w)
+    assert solvable(paper, p, w[None])[0] and kept(e, w)
+    r = ik.solve(paper, p, e)
+    assert r.reached_dof == 4
+    check_pose(paper, r, p)
+    assert kept(e, r.achieved_direction)
+    assert r.direction_error <= angle(w, e) + math.radians(0.01)
+
+
+def test_level4_near_the_stretched_arm_matches_a_fine_circle_oracle(paper):
+    """Targets by a nearly stretched arm (every joint within 3 degrees of 0), e turned off its
+    direction by 0.05-0.6 degrees: the solvable directions form small caps. Level 4 is within
+    0.01 degrees of the best of 2 x 1,201 directions 0.001 degrees apart on e's two circles,
+    and is level 3 only where none of them is solvable."""
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1.0, 1.0, (400, 6)) * math.radians(3.0)
+    q = q[handarm.is_valid(paper, q)]
+    P, D = handarm.forward(paper, q)
+    t = np.radians(np.linspace(-0.6, 0.6, 1201))
+    checked = found = 0
+    for p, d in zip(P, D, strict=True):
+        if checked == 12:
+            break
+        axis = np.cross(d, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        turn = math.radians(rng.uniform(0.05, 0.6))
+        e = d * math.cos(turn) + np.cross(axis, d) * math.sin(turn)
+        if solvable(paper, p, e[None])[0]:
+            continue
+        checked += 1
+        pitch, yaw = math.asin(e[2]), math.atan2(e[1], e[0])
+        c = math.cos(pitch)
+        along_pitch = np.stack(
+            [
+                np.cos(pitch + t) * math.cos(yaw),
+                np.cos(pitch + t) * math.sin(yaw),
+                np.sin(pitch + t),
+            ],
+            1,
+        )
+        along_yaw = np.stack([c * np.cos(yaw + t), c * np.sin(yaw + t), np.full_like(t, e[2])], 1)
+        dirs = np.concatenate([along_pitch, along_yaw])
+        ok = solvable(paper, p, dirs)
+        oracle = float(angle(dirs[ok], e).min()) if ok.any() else math.inf
+        r = ik.solve(paper, p, e)
+        check_pose(paper, r, p)
+        if r.reached_dof == 4:
+            found += 1
+            assert kept(e, r.achieved_direction)
+            assert r.direction_error <= oracle + math.radians(0.01)
+        else:
+            assert r.reached_dof == 3 and oracle == math.inf
+    assert checked == 12 and found >= 4, (checked, found)
+
+
 @pytest.mark.slow
 def test_level4_matches_dense_circle_oracle_many(paper):
     # about 3 s a target (an 18,000-direction oracle and a degraded solve): CI's hour budget

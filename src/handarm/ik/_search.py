@@ -18,7 +18,7 @@ import math
 import numba as nb
 import numpy as np
 
-from handarm.ik._common import JIT
+from handarm.ik._common import JIT, wrap
 from handarm.ik._obstacles import _count_target, count_scratch
 from handarm.ik._solve import _first_scratch, _has_range
 
@@ -375,4 +375,56 @@ def nearest_on_circles(
                 bad = mid
         circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
         n += 1
+    return n
+
+
+@nb.njit(**JIT)
+def circle_projections(
+    p, psi, kinds, yaw, pitch, pole, dirs, best, fine, tol, a, lower, upper, mdl, scene,
+    out_dir,
+):  # fmt: skip
+    """Level-4 directions from solvable ones: each of ``dirs`` projected onto each circle.
+
+    Near the reach sphere the directions solvable at p form a small cap, which a circle can
+    cross in an arc narrower than the grid, where no widened limit helps (the arm is nearly
+    stretched). The directions of valid configurations that reach p lie in such caps; where
+    one's projection onto a circle (the point of the circle at its yaw, or at its elevation
+    in the plane of e's yaw) is solvable, bisection towards e (offset 0, not solvable)
+    pins a boundary (``tol``). Projections whose arc cannot beat ``best`` (rad from e) by
+    lying within one grid step ``fine`` of them are left out; ``best`` drops with every
+    direction found. Writes the directions to ``out_dir``; returns how many.
+    """
+    sc = search_scratch(lower, upper, mdl, scene[3], scene[4].shape[0])
+    cos_pitch = math.cos(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    d = np.empty(3)
+    n = 0
+    for s in range(kinds.shape[0]):
+        kind = kinds[s]
+        th0 = pitch if kind == PITCH_CIRCLE else yaw
+        for i in range(dirs.shape[0]):
+            if n >= out_dir.shape[0]:
+                return n
+            vx, vy, vz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+            if kind == PITCH_CIRCLE:
+                th = math.atan2(vz, vx * cy + vy * sy)
+            else:
+                th = math.atan2(vy, vx)
+            x = wrap(th - th0)
+            if circle_cost(kind, max(abs(x) - fine, 0.0), cos_pitch) > best:
+                continue
+            circle_direction(kind, yaw, pitch, pole, th0 + x, d)
+            if not solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+                continue
+            good, bad = x, 0.0
+            while abs(good - bad) > tol:
+                mid = 0.5 * (good + bad)
+                circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
+                if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+                    good = mid
+                else:
+                    bad = mid
+            circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
+            n += 1
+            best = min(best, circle_cost(kind, abs(good), cos_pitch))
     return n

@@ -49,7 +49,13 @@ from handarm.design import ArmDesign
 from handarm.ik import exact as S
 from handarm.ik._nearest import polish_each, slide_best, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
-from handarm.ik._search import PITCH_CIRCLE, YAW_CIRCLE, nearest_on_circles, refine_directions
+from handarm.ik._search import (
+    PITCH_CIRCLE,
+    YAW_CIRCLE,
+    circle_projections,
+    nearest_on_circles,
+    refine_directions,
+)
 from handarm.ik.results import IKResult
 from handarm.kinematics import is_valid
 from handarm.scene import _kernel_args
@@ -374,12 +380,14 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
-def _circle_candidates(design, p, e, current, prune=True, stats=None) -> list[np.ndarray]:
+def _circle_candidates(design, p, e, current, prune=True, stats=None, seeds=()) -> list[np.ndarray]:
     """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle).
 
     With ``prune`` only the candidates that can be the nearest to e (see
     ``_nearest_on_circles``), else the nearest on each side of each circle. ``stats`` gets
-    the number of grid directions tested.
+    the number of grid directions tested. ``seeds``: directions of valid configurations that
+    reach p, projected onto the circles (``handarm.ik._search.circle_projections``: the
+    small caps near the reach sphere).
     """
     pitch, yaw = _pitch_yaw(e)
     if math.hypot(e[0], e[1]) < KEEP_TOL:  # vertical e: its "yaw" is L's azimuth
@@ -394,7 +402,19 @@ def _circle_candidates(design, p, e, current, prune=True, stats=None) -> list[np
         kinds.append(PITCH_CIRCLE)  # the vertical great circle through e: the tip plane kept
     if tip and math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
         kinds.append(YAW_CIRCLE)
-    return _nearest_on_circles(design, p, yaw, pitch, kinds, prune, stats)
+    found = _nearest_on_circles(design, p, yaw, pitch, kinds, prune, stats)
+    seeds = np.asarray(seeds, float).reshape(-1, 3)
+    if kinds and len(seeds):
+        best = min((float(_angle(v, e)) for v in found), default=math.inf)
+        out_dir = np.empty((2 * len(seeds), 3))
+        n = circle_projections(
+            np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p),
+            np.asarray(kinds, np.int64), float(yaw), float(pitch), _POLE,
+            np.ascontiguousarray(seeds), best, _FINE_STEP, ANGLE_TOL, design.lengths,
+            design.lower, design.upper, S._model(design, 0.0), _search_scene(design), out_dir,
+        )  # fmt: skip
+        found += list(out_dir[:n])
+    return found
 
 
 def degrade_target(
@@ -430,13 +450,16 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     for q in _configs_reaching(design, p, current, cloud=False):
         if float(_angle(_pose(design, q)[1], e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
+    # directions of valid configurations that reach p: level 3 starts from them, and level 4
+    # projects them onto its circles (small caps of solvable directions near the reach)
+    seeds = [_pose(design, q)[1] for q in _configs_reaching(design, p, current)]
     if order == "paper":
-        result = _choose(design, p, e, _circle_candidates(design, p, e, current), 4, current)
+        candidates = _circle_candidates(design, p, e, current, seeds=seeds)
+        result = _choose(design, p, e, candidates, 4, current)
         if result is not None:
             return result
-    seeds = [_pose(design, q)[1] for q in _configs_reaching(design, p, current)]
     if order == "angle":
-        seeds += _circle_candidates(design, p, e, current, prune=False)
+        seeds += _circle_candidates(design, p, e, current, prune=False, seeds=seeds)
     result = _choose(design, p, e, closest_direction(design, p, e, seeds), 3, current)
     if order == "angle" and result is not None and keeps(e, result.achieved_direction):
         result = dataclasses.replace(result, reached_dof=4)
