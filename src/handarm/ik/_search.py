@@ -252,6 +252,20 @@ def _circle_side(kinds, s, yaw, pitch):
 
 
 @nb.njit(**JIT)
+def _circle_bisect(kind, yaw, pitch, pole, th0, good, bad, tol, p, psi, a, mdl, sc, scene):
+    """Bisect the offsets [bad, good] along a circle (good solvable) to ``tol``: the good end."""
+    d = np.empty(3)
+    while abs(good - bad) > tol:
+        mid = 0.5 * (good + bad)
+        circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
+        if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+@nb.njit(**JIT)
 def nearest_on_circles(
     p, psi, kinds, yaw, pitch, pole, prune, offsets, block_ends, fine, tol, a, lower, upper,
     lower_r, upper_r, sub, mdl, scene, out_dir, stats,
@@ -366,13 +380,9 @@ def nearest_on_circles(
         good, bad = hit_good[h], hit_bad[h]
         if prune and circle_cost(kind, max(abs(good) - abs(good - bad), 0.0), cos_pitch) > best:
             continue
-        while abs(good - bad) > tol:
-            mid = 0.5 * (good + bad)
-            circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
-            if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
-                good = mid
-            else:
-                bad = mid
+        good = _circle_bisect(
+            kind, yaw, pitch, pole, th0, good, bad, tol, p, psi, a, mdl, sc, scene
+        )
         circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
         n += 1
     return n
@@ -416,14 +426,9 @@ def circle_projections(
             circle_direction(kind, yaw, pitch, pole, th0 + x, d)
             if not solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
                 continue
-            good, bad = x, 0.0
-            while abs(good - bad) > tol:
-                mid = 0.5 * (good + bad)
-                circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
-                if solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
-                    good = mid
-                else:
-                    bad = mid
+            good = _circle_bisect(
+                kind, yaw, pitch, pole, th0, x, 0.0, tol, p, psi, a, mdl, sc, scene
+            )  # fmt: skip
             circle_direction(kind, yaw, pitch, pole, th0 + good, out_dir[n])
             n += 1
             best = min(best, circle_cost(kind, abs(good), cos_pitch))
