@@ -403,18 +403,18 @@ def _circle_candidates(design, p, e, current, prune=True, stats=None, seeds=()) 
     if tip and math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
         kinds.append(YAW_CIRCLE)
     found = _nearest_on_circles(design, p, yaw, pitch, kinds, prune, stats)
+    # called even with no seed or circle (it returns at once): whatever compiled the grid's
+    # kernel for a design and scene compiles this one too (``warm_up``)
     seeds = np.asarray(seeds, float).reshape(-1, 3)
-    if kinds and len(seeds):
-        best = min((float(_angle(v, e)) for v in found), default=math.inf)
-        out_dir = np.empty((2 * len(seeds), 3))
-        n = circle_projections(
-            np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p),
-            np.asarray(kinds, np.int64), float(yaw), float(pitch), _POLE,
-            np.ascontiguousarray(seeds), best, _FINE_STEP, ANGLE_TOL, design.lengths,
-            design.lower, design.upper, S._model(design, 0.0), _search_scene(design), out_dir,
-        )  # fmt: skip
-        found += list(out_dir[:n])
-    return found
+    best = min((float(_angle(v, e)) for v in found), default=math.inf)
+    out_dir = np.empty((2 * len(seeds), 3))
+    n = circle_projections(
+        np.ascontiguousarray(p, dtype=float), S._default_vertical_azimuth(p),
+        np.asarray(kinds, np.int64), float(yaw), float(pitch), _POLE,
+        np.ascontiguousarray(seeds), best, _FINE_STEP, ANGLE_TOL, design.lengths,
+        design.lower, design.upper, S._model(design, 0.0), _search_scene(design), out_dir,
+    )  # fmt: skip
+    return found + list(out_dir[:n])
 
 
 def degrade_target(
