@@ -17,7 +17,8 @@ and no solution of the target is nearer. Also how many steps the result flagged
 Then paths that leave the workspace: from the pose of a valid configuration, the tool
 point moves straight away from joint 1 in 2 mm steps (direction held) until 60 mm past the
 arm's reach, so the answers go from exact through the degraded levels; prints the levels
-met, the step in joint space (median, largest) and how many steps were flagged.
+met, the step in joint space (median, largest) and how many steps were flagged, and per
+level how far 1e-6 rad / 1e-6 m of noise on each answer moves ``follow``.
 
 Then noise: each answer's pose tilted by 1e-6 rad and moved by 1e-6 m, solved again from
 the answer; prints how far ``follow`` moved (rad, largest joint), and its Euclidean motion
@@ -135,7 +136,7 @@ def main(argv=None) -> None:
         f"motion that follows the pose (pinv(J) dx): median {np.median(n[:, 1]):.2f}x, "
         f"largest {n[:, 1].max():.2f}x; flagged family_ended: {noise_flagged}"
     )
-    lv, ls, lf = leaving
+    lv, ls, lf, ln = leaving
     ls, lf = np.array(ls), np.array(lf, bool)
     print(
         f"leaving the workspace ({args.targets} straight paths, 2 mm steps): levels met "
@@ -148,12 +149,21 @@ def main(argv=None) -> None:
             f"  steps > {lim:g} deg: {over.sum()}, flagged {np.sum(over & lf)}; "
             f"largest unflagged {np.max(ls[~lf]):.2f} deg"
         )
+    print("  noise 1e-6 rad / 1e-6 m on each answer, follow moved (rad, largest joint):")
+    for level in sorted(ln, reverse=True):
+        m = np.array([x[0] for x in ln[level]])
+        f = np.array([x[1] for x in ln[level]], bool)
+        print(
+            f"    {level} DoF: {len(m)} answers, median {np.median(m):.1e}, 90th pct "
+            f"{np.percentile(m, 90):.1e}, largest {m.max():.1e}; over 1e-3: {np.sum(m > 1e-3)} "
+            f"({np.sum((m > 1e-3) & f)} flagged family_ended)"
+        )
 
 
 def leaving_paths(design, rng, n: int):
     """Straight paths from a held pose out past the reach: levels, steps (deg), flags."""
     reach = float(np.sum(design.lengths))
-    levels, steps, flagged = {}, [], []
+    levels, steps, flagged, noise = {}, [], [], {}
     for _ in range(n):
         while True:
             q = rng.uniform(design.lower, design.upper)
@@ -170,7 +180,17 @@ def leaving_paths(design, rng, n: int):
             steps.append(float(np.degrees(np.abs(r.follow - current).max())))
             flagged.append(r.family_ended)
             current = r.follow
-    return levels, steps, flagged
+            # the same 1e-6 rad / 1e-6 m of noise as on the walks, from this answer
+            axis = np.cross(e, rng.normal(size=3))
+            axis /= np.linalg.norm(axis)
+            e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
+            p2 = p0 + k * STEP * out + 1e-6 * rng.normal(size=3) / np.sqrt(3)
+            r2 = ik.solve(design, p2, e2, current=current)
+            if r2.follow is not None:
+                noise.setdefault(r.reached_dof, []).append(
+                    (float(np.abs(r2.follow - current).max()), r2.family_ended)
+                )
+    return levels, steps, flagged, noise
 
 
 if __name__ == "__main__":

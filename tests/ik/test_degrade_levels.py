@@ -368,6 +368,57 @@ def test_noise_never_ends_the_family(paper):
         assert r.to_dict()["family_ended"] is False
 
 
+#: Degraded targets after 1e-6 rad / 1e-6 m of noise, with the previous answer's follow as
+#: current (from leaving paths of benchmarks/bench_tracking.py's kind, paper's arm).
+_DEGRADED_NOISE = [
+    # level 2: follow moved 3.2 rad before holding ties and the pointing pose
+    ([0.03118129827497272, 0.06575015043294388, 0.25675108762895965],
+     [0.16831721241979417, -0.518410739940099, 0.8384030180754294],
+     [-0.6188143935004194, 1.9800245643300594, 0.6200112631965818, 1.5707963318866014,
+      2.405292742751532e-10, 4.801295416026706e-09]),
+    # level 2: 0.81 rad
+    ([0.03819225086160652, 0.0805317109302323, 0.31447683755051553],
+     [0.16831790406696426, -0.5184090851716272, 0.8384039024134016],
+     [-0.34653146320856876, 1.8030867003615556, 0.4092155350270278, 1.5707963169083479,
+      1.2735726740037534e-09, 1.0712362252304467e-09]),
+    # level 2: 0.13 rad
+    ([0.04239848341635803, 0.08940228104899076, 0.34911335708752966],
+     [0.1683184804230264, -0.5184094989624319, 0.8384035308451435],
+     [-0.10035955228168345, 2.075960419345115, -0.6542135093068352, 1.5707963096482562,
+      7.096035776790558e-09, 3.8087804632476655e-09]),
+    # level 3: 3.2e-3 rad
+    ([0.06896234078151794, 0.13396294825980387, -0.10145553580376473],
+     [-0.07381214859851695, 0.1803667200205688, 0.9808259850902666],
+     [0.37753935226280294, -0.003261786885088959, 1.4389970845650495, -1.568701430323449,
+      -0.00012748806968765607, 1.5397215109194509]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", range(len(_DEGRADED_NOISE)))
+def test_noise_on_a_degraded_target_keeps_follow(paper, case):
+    """Noise moves a degraded answer's follow by microradians, and costs no accuracy.
+
+    The answer with current may differ from the one without it only by a tie
+    (``HOLD_DISTANCE`` in position, ``HOLD_ANGLE`` in direction).
+    """
+    from handarm.ik.degrade import HOLD_ANGLE, HOLD_DISTANCE
+
+    p, e, current = (np.array(x) for x in _DEGRADED_NOISE[case])
+    r = ik.solve(paper, p, e, current=current)
+    alone = ik.solve(paper, p, e)
+    assert r.reached_dof == alone.reached_dof < 5
+    assert np.abs(r.follow - current).max() < 1e-4
+    assert not r.family_ended
+    assert handarm.is_valid(paper, r.follow)
+    p_f, e_f = handarm.forward(paper, r.follow)
+    np.testing.assert_allclose(p_f, r.achieved_position, atol=1e-9)
+    np.testing.assert_allclose(e_f, r.achieved_direction, atol=1e-9)
+    assert r.position_error <= alone.position_error + HOLD_DISTANCE
+    assert r.position_error == pytest.approx(float(np.linalg.norm(p_f - p)), abs=1e-12)
+    if r.reached_dof >= 3:
+        assert r.direction_error <= alone.direction_error + HOLD_ANGLE
+
+
 def test_a_range_ending_at_a_joint_limit_is_reported(paper):
     """Joint 2 at its limit, the target pushed past it: follow must jump, and says so."""
     from handarm.ik.api import FAMILY_END_RATIO, least_joint_motion

@@ -27,6 +27,10 @@ closest to e and bisection pins its boundary to ``ANGLE_TOL``; the level-3 searc
 from directions of valid configurations that reach p (so small caps of solvable directions
 near the reach sphere are not missed) and slides along the boundary towards e.
 
+With ``current`` (a control loop), answers within ``HOLD_ANGLE`` (or ``HOLD_DISTANCE`` at
+level 2) of the best found are ties, and the one nearest current wins (``_choose``): sensor
+noise then keeps the answer where it was.
+
 In a scene (``degrade_target(..., scene=, clearance=)``) every level searches with the
 obstacles included: "solvable" means a range that keeps the clearance
 (``count_solutions(..., scene=)``), answers come from ``solve_in_scene``, and the
@@ -90,6 +94,22 @@ _PATTERN_ROUNDS = 300  # rings of one pattern search, at most (a narrow sliver c
 _POLISH_STEPS = 500  # Levenberg-Marquardt steps of one polish (they take ~0.1 us each)
 #: A relaxed direction keeps e's pitch (or yaw) when it differs by less than this (rad).
 KEEP_TOL = 1e-9
+#: rad: with ``current``, relaxed directions this much farther from e than the closest one
+#: found are ties, and the one nearest current's pose wins (``_choose``). The searches find
+#: the closest to about ``ANGLE_TOL`` and the levels promise 0.01 deg (1.7e-4 rad), so a tie
+#: costs at most 0.004 deg; without it 1e-6 of sensor noise moved ``follow`` by up to 7e-3
+#: rad at levels 3 and 4 (the answer sits where the solution ranges shrink to a point, and
+#: the bisections' last step moves it there).
+HOLD_ANGLE = 5e-5
+#: m: the same at level 2, whose answers are promised to 1e-7 m.
+HOLD_DISTANCE = 2e-8
+#: At level 2 with ``current``, the pose that points the tool at p is taken only when its
+#: follow configuration moves at most this many times as far as the nearest point's own
+#: configuration does. The nearest point lies on the edge of the workspace, where the
+#: solution ranges of that pose shrink to points: 1e-6 of noise moved ``follow`` by up to
+#: 3.2 rad to another range of the same pose, where the polished configuration moves by
+#: microradians.
+HOLD_RATIO = 10.0
 
 
 #: (scene, clearance) while ``degrade_target`` runs in a scene, else None.
@@ -359,24 +379,56 @@ def keeps(e: np.ndarray, v: np.ndarray) -> str | None:
     return None
 
 
+def _held(design, e, current, dof) -> list[np.ndarray]:
+    """Directions that keep ``current``'s pose (none without current).
+
+    Its tool direction (level 3), or that direction moved onto e's pitch and yaw circles
+    (level 4).
+    """
+    if current is None:
+        return []
+    v = _pose(design, current)[1]
+    if dof == 3:
+        return [v]
+    pitch, yaw = _pitch_yaw(e)
+    el, az = _pitch_yaw(v)
+    # the pitch circle keeps e's vertical plane (either way across the pole), the yaw circle
+    # e's elevation
+    side = 1.0 if math.cos(az - yaw) >= 0.0 else -1.0
+    return [
+        np.array([side * math.cos(el) * math.cos(yaw), side * math.cos(el) * math.sin(yaw),
+                  math.sin(el)]),
+        np.array([math.cos(pitch) * math.cos(az), math.cos(pitch) * math.sin(az),
+                  math.sin(pitch)]),
+    ]  # fmt: skip
+
+
 def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     """The relaxed direction closest to e among candidates, as an IKResult at level ``dof``.
 
-    Ties (within 1e-9 rad) go to the candidate whose follow configuration is nearest
-    ``current``.
+    With ``current`` the directions that keep its pose (``_held``) are candidates too, and
+    candidates within ``HOLD_ANGLE`` of the closest are ties: the one whose follow
+    configuration is nearest ``current`` wins, so that a target moved by sensor noise keeps
+    the answer where it was instead of jumping with the searches' last digits.
     """
     scored = []
-    for v in candidates:
+
+    def score(v) -> None:
         r = _solve_exact(design, p, v, current)
-        if r.count == 0:
-            continue
-        err = float(_angle(v, e))
-        motion = 0.0 if current is None else float(np.linalg.norm(r.follow - current))
-        scored.append((round(err / 1e-9), motion, err, v, r))
+        if r.count and (dof == 3 or keeps(e, v) is not None):
+            err = float(_angle(v, e))
+            motion = 0.0 if current is None else float(np.linalg.norm(r.follow - current))
+            scored.append((err, motion, v, r))
+
+    for v in candidates:
+        score(v)
     if not scored:
         return None
-    scored.sort(key=lambda s: (s[0], s[1]))
-    _, _, err, v, r = scored[0]
+    for v in _held(design, e, current, dof):
+        score(v)
+    best = min(s[0] for s in scored)
+    tie = 1e-9 if current is None else HOLD_ANGLE
+    err, _, v, r = min((s for s in scored if s[0] <= best + tie), key=lambda s: (s[1], s[0]))
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
@@ -596,9 +648,15 @@ def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> 
 def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can."""
     best_q, best_err = None, math.inf
-    for q, err in zip(*_polished(design, p, current, nearest=True), strict=True):
+    qs, errs = _polished(design, p, current, nearest=True)
+    for q, err in zip(qs, errs, strict=True):
         if err < best_err - 1e-12:
             best_q, best_err = q, float(err)
+    if current is not None and best_q is not None:
+        # ties (within HOLD_DISTANCE) go to the configuration nearest current (see _choose)
+        tied = np.flatnonzero(errs <= best_err + HOLD_DISTANCE)
+        k = tied[np.argmin(np.linalg.norm(qs[tied] - current, axis=1))]
+        best_q, best_err = qs[k], float(errs[k])
     if best_q is None and _SCENE.get() is not None:  # nothing clear of the scene near p
         return IKResult(
             np.zeros((0, 6)), np.zeros((0, 3), int), np.zeros((0, 2)), 0, 0.0, 0.0,
@@ -617,7 +675,13 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
     if np.linalg.norm(aim) > 1e-12:
         aim = aim / np.linalg.norm(aim)
         r = _solve_exact(design, p_reached, aim, best_q if current is None else current)
-        if r.count:
+        # with current, only if its follow stays near (else the polished configuration)
+        held = r.count and (
+            current is None
+            or np.linalg.norm(r.follow - current)
+            <= HOLD_RATIO * float(np.linalg.norm(best_q - current)) + 1e-6
+        )
+        if held:
             return dataclasses.replace(
                 r,
                 reached_dof=2,
