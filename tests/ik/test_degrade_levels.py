@@ -721,6 +721,49 @@ LEVEL2_MISSES_VALLEY = [
 ]  # fmt: skip
 
 
+#: A second random design of that check, and (design, p, e, witness) where level 2 still
+#: stopped 11, 4.7 and 6.3 um farther than the witness (found by the oracle's longer local
+#: search), wrists straight: a contact blocks the descent nearly head-on, and the valid
+#: descending directions lie within 0.1 deg of the contact's tangent plane, where only the
+#: grazing polls (``handarm.ik._nearest._GRAZES``) look.
+RANDOM101 = dict(
+    link_lengths=(0.07745896275247494, 0.0511739465003708, 0.07031624353864897,
+                  0.06160751833532353, 0.04824478525386177, 0.07652265588903115,
+                  0.07411991951053562),
+    beam_width=0.015785414517063154, hub_radius=0.008184830557743137,
+    cable_diameter=0.0010694291968821575, clearance=0.0003610991735856244,
+)  # fmt: skip
+LEVEL2_MISSES_GRAZING = [
+    (
+        RANDOM101,
+        [-0.011675018353515334, -0.00018928590893117352, -0.3313251089428549],
+        [-0.528188699316376, -0.7159818564343745, 0.45649389828480913],
+        [0.8791189477011028, 1.5849975301142316, 2.3184175166094696, -1.502693234910573,
+         -9.612993898909839e-08, 3.616999833980645e-08],
+    ),
+    (
+        RANDOM103,
+        [-0.018014128099751447, -0.001862507769447194, -0.20957349086891777],
+        [0.5697731272009999, 0.628529245791749, 0.5294426982252642],
+        [0.3785228039005246, -1.616457112693739, -1.9036583478138787, -1.5692660980477509,
+         -2.9043168955005426e-08, 4.313902102936369e-08],
+    ),
+    (
+        RANDOM103,
+        [-0.016056877012982224, 0.008233054883290713, -0.30565474175061996],
+        [0.7484118380772666, 0.07307556144631812, 0.6591962400872085],
+        [-0.40449908022710296, 1.5636598560500141, 1.9824320519336196, -1.567246872203636,
+         -4.75783872131487e-08, 2.8680188249746556e-08],
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_GRAZING)
+def test_level2_slides_along_a_contact_that_blocks_the_descent(paper, design, p, e, witness):
+    """As below, where the slide must move nearly square to the steepest descent."""
+    _check_level2_against_witness(handarm.ArmDesign(**design), p, e, witness)
+
+
 @pytest.mark.parametrize(("design", "p", "e", "witness"), LEVEL2_MISSES_VALLEY)
 def test_level2_follows_a_curved_contact_to_its_end(paper, design, p, e, witness):
     """As below, where moves along single polls zig-zag and stop short."""

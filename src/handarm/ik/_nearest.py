@@ -56,7 +56,17 @@ _RANDOM_POLLS = 8
 #: and 0.081 -> 0.011 mm, and a level-2 answer is quicker (median 116 -> 92 ms there).
 _TRENDS = (2, 4, 8)
 _HISTORY = max(_TRENDS)  # moves remembered
-_POLLS = 2 + len(_TRENDS) + 2 * 3 * len(_TILTS) + 12 + _RANDOM_POLLS
+#: Grazing polls: the steepest descent turned by these angles (rad: 89.9 and 89.99 deg)
+#: towards ``_GRAZE_DIRS`` random directions across it. Where a contact blocks the descent
+#: nearly head-on, the directions that stay valid and still descend form a wedge a few
+#: hundredths of a degree wide around the contact's tangent plane, which no other poll
+#: finds (one oracle case: a valid straight path to a point 5 um nearer, at 89.92 deg from
+#: the descent). Turned that far, a random direction across the descent lands in the wedge
+#: about as often as it points the contact's way along it. Measured on the second
+#: oracle's 20 misses on four designs: 3 -> 0 remain farther (worst 0.011 mm -> 0).
+_GRAZES = (1.569, 1.5706)
+_GRAZE_DIRS = 8
+_POLLS = 2 + len(_TRENDS) + 2 * 3 * len(_TILTS) + 12 + _RANDOM_POLLS + len(_GRAZES) * _GRAZE_DIRS
 
 
 @nb.njit(**JIT)
@@ -122,8 +132,9 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     creep along a collision boundary the descent runs into), each joint alone either way
     (the others held, so that a joint at its limit stays there: near the base axis the
     nearest point often has the wrist straight, sometimes joints 1 and 3 at their limits),
-    and ``_RANDOM_POLLS`` random directions. A move doubles the step (up to
-    SLIDE_STEP_MAX), a miss halves it. It ends when the step falls below SLIDE_STEP_MIN,
+    ``_RANDOM_POLLS`` random directions, and the descent turned nearly square to random
+    directions across it (``_GRAZES``: along a contact that blocks it). A move doubles the
+    step (up to SLIDE_STEP_MAX), a miss halves it. It ends when the step falls below SLIDE_STEP_MIN,
     after ``iters`` iterations, or when SLIDE_PATIENCE iterations gained less than
     SLIDE_GAIN. Returns (distance, step).
     """
@@ -182,6 +193,15 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
             v = np.random.standard_normal(6)  # noqa: NPY002 (numba's per-thread state)
             polls[n] = v / math.sqrt(np.sum(v * v))
             n += 1
+        if gn > 0.0:
+            down = -g / gn
+            for _ in range(_GRAZE_DIRS):  # grazing the contact that blocks the descent
+                v = np.random.standard_normal(6)  # noqa: NPY002
+                v -= np.sum(v * down) * down
+                v /= math.sqrt(np.sum(v * v))
+                for tilt in _GRAZES:
+                    polls[n] = math.cos(tilt) * down + math.sin(tilt) * v
+                    n += 1
         moved = False
         for k in range(n):
             for j in range(6):
