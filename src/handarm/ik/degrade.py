@@ -25,7 +25,11 @@ reports level 4 when that direction happens to keep pitch or yaw.
 Searches over directions are exact at their final step: a grid finds the solvable region
 closest to e and bisection pins its boundary to ``ANGLE_TOL``; the level-3 search also starts
 from directions of valid configurations that reach p (so small caps of solvable directions
-near the reach sphere are not missed) and slides along the boundary towards e.
+near the reach sphere are not missed) and slides along the boundary towards e. Level 4's
+grid tests each direction with the joint limits widened by ``_SLIVER_WIDEN`` first, and
+scans runs of directions solvable only so 32 times finer (arcs narrower than the grid,
+where a joint sits at its limit); it also projects the directions of those configurations
+onto its circles (``circle_projections``).
 
 With ``current`` (a control loop), answers within ``HOLD_ANGLE`` (or ``HOLD_DISTANCE`` at
 level 2) of the best found are ties, and the one nearest current wins (``_choose``): sensor
@@ -498,13 +502,16 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
         # degenerate pose) and no direction is solvable there, so levels 4 and 3 have
         # nothing to find
         return _two_dof(design, p, e, current)
-    # degenerate exact poses (the straight arm): the stretched arm aimed at p, polished
-    for q in _configs_reaching(design, p, current, cloud=False):
-        if float(_angle(_pose(design, q)[1], e)) < 1e-9:
+    # valid configurations that reach p (the stretched arm aimed at p, current and cloud
+    # points, polished): one with e's direction is a degenerate exact pose (the straight
+    # arm); level 3 starts from their directions, and level 4 projects them onto its circles
+    # (small caps of solvable directions near the reach)
+    seeds = []
+    for q in _configs_reaching(design, p, current):
+        v = _pose(design, q)[1]
+        if float(_angle(v, e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
-    # directions of valid configurations that reach p: level 3 starts from them, and level 4
-    # projects them onto its circles (small caps of solvable directions near the reach)
-    seeds = [_pose(design, q)[1] for q in _configs_reaching(design, p, current)]
+        seeds.append(v)
     if order == "paper":
         candidates = _circle_candidates(design, p, e, current, seeds=seeds)
         result = _choose(design, p, e, candidates, 4, current)
@@ -584,26 +591,25 @@ def _seed_count(nearest: bool) -> int:
     return _NEAREST_SEEDS if nearest else _SEEDS
 
 
-def _seeds(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False) -> list:
+def _seeds(design: ArmDesign, p: np.ndarray, current, nearest=False) -> list:
     """Valid starting configurations: the stretched arm aimed at p, current, cloud points.
 
     ``nearest`` (level 2): ``_NEAREST_SEEDS`` cloud points, else ``_SEEDS``.
     """
     seeds = [q for q in _start_seeds(design, p, current) if _valid(design, q)]
-    cloud_q, cloud_p = _position_cloud(design) if cloud else (np.zeros((0, 6)), None)
-    if len(cloud_q):
-        # the nearest that are valid (in a scene, many near p may meet an obstacle)
-        dist = np.linalg.norm(cloud_p - p, axis=1)
-        wanted = _seed_count(nearest)
-        k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
-        closest = np.argpartition(dist, k)[:k]
-        near = cloud_q[closest[np.argsort(dist[closest])]]
-        # lazily: a validity test costs ~25 us
-        seeds.extend(itertools.islice((q for q in near if _valid(design, q)), wanted))
+    cloud_q, cloud_p = _position_cloud(design)
+    # the nearest that are valid (in a scene, many near p may meet an obstacle)
+    dist = np.linalg.norm(cloud_p - p, axis=1)
+    wanted = _seed_count(nearest)
+    k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
+    closest = np.argpartition(dist, k)[:k]
+    near = cloud_q[closest[np.argsort(dist[closest])]]
+    # lazily: a validity test costs ~25 us
+    seeds.extend(itertools.islice((q for q in near if _valid(design, q)), wanted))
     return seeds
 
 
-def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=False):
+def _polished(design: ArmDesign, p: np.ndarray, current, nearest=False):
     """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,)).
 
     Invalid seeds have distance inf. Under the printed-link model with no scene one
@@ -615,10 +621,7 @@ def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=Fal
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
         seeds = np.ascontiguousarray(_start_seeds(design, p, current), dtype=float)
-        if cloud:
-            cloud_q, cloud_p = _position_cloud(design)
-        else:
-            cloud_q, cloud_p = np.zeros((0, 6)), np.zeros((0, 3))
+        cloud_q, cloud_p = _position_cloud(design)
         n_cloud = min(_seed_count(nearest), len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
@@ -634,14 +637,14 @@ def _polished(design: ArmDesign, p: np.ndarray, current, cloud=True, nearest=Fal
                 out_q, out_err, blocked, n,
             )  # fmt: skip
         return out_q[:n], out_err[:n]
-    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, cloud, nearest)]
+    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, nearest)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
     return np.array(qs).reshape(-1, 6), np.array(errs)
 
 
-def _configs_reaching(design: ArmDesign, p: np.ndarray, current, cloud=True) -> list[np.ndarray]:
+def _configs_reaching(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
     """Valid configurations whose tool point is p (to 1e-9 m), from polished seeds."""
-    qs, errs = _polished(design, p, current, cloud)
+    qs, errs = _polished(design, p, current)
     return [q for q, err in zip(qs, errs, strict=True) if err < 1e-9]
 
 
