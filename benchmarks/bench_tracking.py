@@ -18,7 +18,8 @@ Then paths that leave the workspace: from the pose of a valid configuration, the
 point moves straight away from joint 1 in 2 mm steps (direction held) until 60 mm past the
 arm's reach, so the answers go from exact through the degraded levels; prints the levels
 met, the step in joint space (median, largest) and how many steps were flagged, and per
-level how far 1e-6 rad / 1e-6 m of noise on each answer moves ``follow``.
+level how far 1e-6 rad / 1e-6 m of noise on each answer moves ``follow``, also against the
+least joint motion between the two answers' poses (|pinv(J) dx|).
 
 Then noise: each answer's pose tilted by 1e-6 rad and moved by 1e-6 m, solved again from
 the answer; prints how far ``follow`` moved (rad, largest joint), and its Euclidean motion
@@ -153,10 +154,13 @@ def main(argv=None) -> None:
     for level in sorted(ln, reverse=True):
         m = np.array([x[0] for x in ln[level]])
         f = np.array([x[1] for x in ln[level]], bool)
+        x = np.array([x[2] for x in ln[level]])
         print(
             f"    {level} DoF: {len(m)} answers, median {np.median(m):.1e}, 90th pct "
             f"{np.percentile(m, 90):.1e}, largest {m.max():.1e}; over 1e-3: {np.sum(m > 1e-3)} "
-            f"({np.sum((m > 1e-3) & f)} flagged family_ended)"
+            f"({np.sum((m > 1e-3) & f)} flagged family_ended); against the least motion "
+            f"between the answers' poses: median {np.median(x):.2f}x"
+            + (f", {np.median(x[m > 1e-3]):.2f}x over 1e-3" if np.any(m > 1e-3) else "")
         )
 
 
@@ -187,9 +191,14 @@ def leaving_paths(design, rng, n: int):
             p2 = p0 + k * STEP * out + 1e-6 * rng.normal(size=3) / np.sqrt(3)
             r2 = ik.solve(design, p2, e2, current=current)
             if r2.follow is not None:
+                # against the least joint motion between the two answers' poses
+                need = least_joint_motion(design, current, r2.achieved_position,
+                                          r2.achieved_direction)  # fmt: skip
+                moved = float(np.linalg.norm(r2.follow - current))
                 noise.setdefault(r.reached_dof, []).append(
-                    (float(np.abs(r2.follow - current).max()), r2.family_ended)
-                )
+                    (float(np.abs(r2.follow - current).max()), r2.family_ended,
+                     moved / max(need, 1e-12))
+                )  # fmt: skip
     return levels, steps, flagged, noise
 
 
