@@ -529,6 +529,57 @@ def test_level3_is_no_worse_than_an_oracles_solvable_direction(paper, p, e, witn
         assert r.direction_error <= angle(w, e) + math.radians(0.01), order
 
 
+#: A random design, and (p, e, a solvable direction) where level 3 answered 2.6 deg worse
+#: (a hostile check of 2026-11-27): the direction's configuration has joint 1 at its limit
+#: and the wrist straight, and none of the 8 configurations level 3 started from lay in its
+#: basin (32 now, as level 2's).
+RANDOM_R1 = dict(
+    link_lengths=(0.06174426416967699, 0.05963158200557567, 0.04314467124381542,
+                  0.040312923942853594, 0.05337981657219151, 0.07139357632615503,
+                  0.041012489459177084),
+)  # fmt: skip
+LEVEL3_MISSES_RANDOM = [
+    (
+        [-0.15847864108007573, 0.07733608170935964, -0.14219379513653485],
+        [0.18526544938305817, 0.9756783928767854, -0.11716819934720636],
+        [-0.4161657511579471, 0.47686097467579736, -0.7742155245113536],
+    ),
+]
+
+
+@pytest.mark.parametrize(("p", "e", "witness"), LEVEL3_MISSES_RANDOM)
+def test_level3_starts_from_a_basin_the_nearest_few_miss(p, e, witness):
+    """As above, on a random design."""
+    design = handarm.ArmDesign(**RANDOM_R1)
+    p, e, w = (np.asarray(v, float) for v in (p, e, witness))
+    assert solvable(design, p, w[None])[0]
+    r = ik.solve(design, p, e)
+    assert r.reached_dof in (3, 4)
+    check_pose(design, r, p)
+    assert r.direction_error <= angle(w, e) + math.radians(0.01)
+
+
+@pytest.mark.parametrize(
+    "p",
+    [
+        [0.06434171225932628, -0.12719881916497952, -0.10740049550764583],
+        [-0.08079806866062753, 0.045172260227236936, -0.08609858980256976],
+    ],
+)
+def test_a_vertical_e_can_still_be_kept_at_level_4(p):
+    """Straight up: level 4 keeps the tip plane of L's azimuth (found by the level-4 search;
+    a filter meant for ``current``'s held directions once dropped these to level 3)."""
+    design = handarm.ArmDesign(**RANDOM_R1)
+    p, e = np.asarray(p, float), np.array([0.0, 0.0, 1.0])
+    r = ik.solve(design, p, e)
+    assert r.reached_dof == 4
+    check_pose(design, r, p)
+    assert r.direction_error == pytest.approx(float(angle(r.achieved_direction, e)), abs=1e-12)
+    # the achieved direction lies in the vertical plane of L's azimuth
+    c, s_ = math.cos(r.azimuth), math.sin(r.azimuth)
+    assert abs(-s_ * r.achieved_direction[0] + c * r.achieved_direction[1]) < 1e-9
+
+
 def test_the_searches_count_as_count_solutions_does(paper):
     """Degradation counts its own directions without the input checks: same answers for
     random (unnormalised) directions, vertical ones, and a point on joint 1's axis."""

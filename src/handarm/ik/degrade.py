@@ -86,10 +86,13 @@ ANGLE_TOL = 1e-5
 #: circle, so that L's azimuth is the circle's and not the free one of a vertical e.
 _POLE = 1e-9
 _SPHERE = 2000
-_SEEDS = 8  # valid configurations near p polished as seeds (level 3's directions)
-#: Level 2's seeds: the nearest point's basin is often not that of the nearest few
-#: configurations (near the base axis, the oracle check's misses, see ``_two_dof``).
-_NEAREST_SEEDS = 32
+#: Valid cloud configurations near p polished as seeds: level 2's starts, and the
+#: configurations reaching p whose directions start level 3 and are projected onto level 4's
+#: circles. The nearest point's basin is often not that of the nearest few configurations
+#: (near the base axis, the oracle check's misses, see ``_two_dof``), and nor is a solvable
+#: direction's: with 8, level 3 missed one 2.6 deg nearer e on a random design (joint 1 at
+#: its limit, the wrist straight); 24 found it. 32 cost level 4 about 0.25 ms more (median).
+_SEEDS = 32
 #: m: a polished tool point this near the target is the target (rounding of the kinematics)
 _AT_TARGET = 1e-12
 _STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
@@ -419,7 +422,7 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
 
     def score(v) -> None:
         r = _solve_exact(design, p, v, current)
-        if r.count and (dof == 3 or keeps(e, v) is not None):
+        if r.count:
             err = float(_angle(v, e))
             motion = 0.0 if current is None else float(np.linalg.norm(r.follow - current))
             scored.append((err, motion, v, r))
@@ -429,7 +432,10 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     if not scored:
         return None
     for v in _held(design, e, current, dof):
-        score(v)
+        # the searches' candidates keep pitch or yaw by construction (for a vertical e, L's
+        # azimuth stands for its yaw); a held one at level 4 must keep one of e's
+        if dof == 3 or keeps(e, v) is not None:
+            score(v)
     best = min(s[0] for s in scored)
     tie = 1e-9 if current is None else HOLD_ANGLE
     err, _, v, r = min((s for s in scored if s[0] <= best + tie), key=lambda s: (s[1], s[0]))
@@ -586,21 +592,16 @@ def _start_seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
     return seeds
 
 
-def _seed_count(nearest: bool) -> int:
-    """Cloud configurations polished as seeds: level 2's (``nearest``) or level 3's."""
-    return _NEAREST_SEEDS if nearest else _SEEDS
-
-
-def _seeds(design: ArmDesign, p: np.ndarray, current, nearest=False) -> list:
+def _seeds(design: ArmDesign, p: np.ndarray, current) -> list:
     """Valid starting configurations: the stretched arm aimed at p, current, cloud points.
 
-    ``nearest`` (level 2): ``_NEAREST_SEEDS`` cloud points, else ``_SEEDS``.
+    The ``_SEEDS`` nearest p that are valid.
     """
     seeds = [q for q in _start_seeds(design, p, current) if _valid(design, q)]
     cloud_q, cloud_p = _position_cloud(design)
     # the nearest that are valid (in a scene, many near p may meet an obstacle)
     dist = np.linalg.norm(cloud_p - p, axis=1)
-    wanted = _seed_count(nearest)
+    wanted = _SEEDS
     k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
     closest = np.argpartition(dist, k)[:k]
     near = cloud_q[closest[np.argsort(dist[closest])]]
@@ -614,15 +615,14 @@ def _polished(design: ArmDesign, p: np.ndarray, current, nearest=False):
 
     Invalid seeds have distance inf. Under the printed-link model with no scene one
     compiled call does it all (``handarm.ik._nearest``); else seed by seed. ``nearest``
-    (level 2): ``_NEAREST_SEEDS`` cloud seeds, and under the printed-link model with no
-    scene the polished seeds then slide along the collision boundaries
-    (``handarm.ik._nearest.slide_best``).
+    (level 2): under the printed-link model with no scene the polished seeds then slide
+    along the collision boundaries (``handarm.ik._nearest.slide_best``).
     """
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
         seeds = np.ascontiguousarray(_start_seeds(design, p, current), dtype=float)
         cloud_q, cloud_p = _position_cloud(design)
-        n_cloud = min(_seed_count(nearest), len(cloud_q))
+        n_cloud = min(_SEEDS, len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
         blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
@@ -637,7 +637,7 @@ def _polished(design: ArmDesign, p: np.ndarray, current, nearest=False):
                 out_q, out_err, blocked, n,
             )  # fmt: skip
         return out_q[:n], out_err[:n]
-    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current, nearest)]
+    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
     return np.array(qs).reshape(-1, 6), np.array(errs)
 
