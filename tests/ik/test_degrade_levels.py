@@ -334,6 +334,33 @@ def test_near_vertical_noise_does_not_swing_the_tip_plane(paper):
         current = r.follow
 
 
+def test_near_vertical_noise_on_a_degraded_target_keeps_the_tip_plane():
+    """As above on a target that degrades (level 4, a random design of a hostile check):
+    the degraded levels aim at the cone's direction in current's tip plane, so noise no
+    longer swings follow (by up to 4.7 rad before) and the direction error is e's."""
+    design = handarm.ArmDesign(
+        link_lengths=(0.07365248524811453, 0.06608219796456924, 0.06532438022501741,
+                      0.04642981992656452, 0.060549876465802066, 0.0650725182378348,
+                      0.07181773254537713)
+    )  # fmt: skip
+    p = np.array([-0.09224018159048517, 0.00676834324429844, -0.07449828753304183])
+    q = np.array([0.5802888098354599, 0.7270890536230703, -1.1870207264319512,
+                  -0.8430486497634146, -0.3118526698775357, 1.599163281310386])  # fmt: skip
+    r = ik.solve(design, p, [0.0, 0.0, 1.0], current=q)
+    assert r.reached_dof == 4
+    current = r.follow
+    rng = np.random.default_rng(3)
+    for az in rng.uniform(-math.pi, math.pi, 20):
+        tilt = 1e-6
+        e = np.array([math.sin(tilt) * math.cos(az), math.sin(tilt) * math.sin(az), math.cos(tilt)])
+        r = ik.solve(design, p + 1e-6 * rng.normal(size=3) / math.sqrt(3), e, current=current)
+        assert r.reached_dof == 4
+        # the kinematics near level 4's fold may move it by ~1e-3 rad (see the IK guide)
+        assert np.abs(r.follow - current).max() < 1e-2
+        assert r.direction_error == pytest.approx(float(angle(r.achieved_direction, e)), abs=1e-12)
+        current = r.follow
+
+
 def test_least_joint_motion_is_pinv_of_the_pose_jacobian(paper):
     """Against pinv of a central-difference Jacobian of ``forward`` (independent of the kernel)."""
     from handarm.ik.api import least_joint_motion

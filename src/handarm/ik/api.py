@@ -89,11 +89,20 @@ def solve(
         degraded = dataclasses.replace(degraded, blocked_by=result.blocked_by)
         return _with_motion(design, degraded, current)
     p, e, current = check_inputs(design, p, e, current)
-    result = _near_vertical(design, p, e, current)
-    if result is None:
+    v = _cone_direction(e, current)
+    result = None if v is None else _exact(design, p, v, current)
+    if result is not None and result.count:
+        result = dataclasses.replace(result, direction_error=_angle(v, e))
+    else:
         result = _exact(design, p, e, current)
     if not (result.count or not degrade):
-        result = degrade_target(design, p, e, current, order)
+        # within the cone the degraded levels aim at v too: e's own azimuth is noise there,
+        # and level 4's circles would swing with it
+        result = degrade_target(design, p, e if v is None else v, current, order)
+        if v is not None:
+            result = dataclasses.replace(
+                result, direction_error=_angle(result.achieved_direction, e)
+            )
     _check_finite(result)
     return _with_motion(design, result, current)
 
@@ -138,12 +147,17 @@ def least_joint_motion(design: ArmDesign, q, p, e) -> float:
 #: With ``current``, a direction within this angle (rad) of straight up/down is reached with
 #: the tip plane of ``current`` (its elevation kept exactly, the azimuth of its tiny
 #: horizontal part relaxed): that azimuth is sensor noise there, and following it would
-#: swing the tip plane around.
+#: swing the tip plane around. A degraded target in the cone is degraded towards that
+#: direction too (level 4's circles then keep current's tip plane); its ``direction_error``
+#: is measured from e itself.
 VERTICAL_CONE = 1e-3
 
 
-def _near_vertical(design: ArmDesign, p, e, current) -> IKResult | None:
-    """The tolerance-cone answer for a near-vertical e with ``current`` (None otherwise)."""
+def _cone_direction(e, current) -> np.ndarray | None:
+    """E turned into ``current``'s tip plane, its elevation kept exactly, or None.
+
+    Only with ``current`` and e within ``VERTICAL_CONE`` of vertical (not exactly vertical).
+    """
     h = math.hypot(e[0], e[1])
     if current is None or h == 0.0 or h >= math.sin(VERTICAL_CONE):
         return None
@@ -151,12 +165,12 @@ def _near_vertical(design: ArmDesign, p, e, current) -> IKResult | None:
     # the tip plane of current, on the side nearer e's horizontal part
     if math.cos(math.atan2(e[1], e[0]) - psi) < 0.0:
         psi += math.pi
-    v = np.array([h * math.cos(psi), h * math.sin(psi), e[2]])
-    r = _exact(design, p, v, current)
-    if r.count == 0:
-        return None
-    err = 2.0 * math.atan2(float(np.linalg.norm(v - e)), float(np.linalg.norm(v + e)))
-    return dataclasses.replace(r, direction_error=err)
+    return np.array([h * math.cos(psi), h * math.sin(psi), e[2]])
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle between unit vectors (rad), robust near 0."""
+    return 2.0 * math.atan2(float(np.linalg.norm(a - b)), float(np.linalg.norm(a + b)))
 
 
 def _check_finite(result: IKResult) -> None:
