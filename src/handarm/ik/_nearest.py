@@ -134,9 +134,9 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     nearest point often has the wrist straight, sometimes joints 1 and 3 at their limits),
     ``_RANDOM_POLLS`` random directions, and the descent turned nearly square to random
     directions across it (``_GRAZES``: along a contact that blocks it). A move doubles the
-    step (up to SLIDE_STEP_MAX), a miss halves it. It ends when the step falls below SLIDE_STEP_MIN,
-    after ``iters`` iterations, or when SLIDE_PATIENCE iterations gained less than
-    SLIDE_GAIN. Returns (distance, step).
+    step (up to SLIDE_STEP_MAX), a miss halves it. It ends when the step falls below
+    SLIDE_STEP_MIN, after ``iters`` iterations, or when SLIDE_PATIENCE iterations gained
+    less than SLIDE_GAIN. Returns (distance, step).
     """
     p, trial_p = np.empty(3), np.empty(3)
     jac, trial_jac = np.empty((3, 6)), np.empty((3, 6))

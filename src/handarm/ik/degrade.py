@@ -104,7 +104,7 @@ KEEP_TOL = 1e-9
 #: rad: with ``current``, relaxed directions this much farther from e than the closest one
 #: found are ties, and the one nearest current's pose wins (``_choose``). The searches find
 #: the closest to about ``ANGLE_TOL`` and the levels promise 0.01 deg (1.7e-4 rad), so a tie
-#: costs at most 0.004 deg; without it 1e-6 of sensor noise moved ``follow`` by up to 7e-3
+#: costs at most 0.003 deg; without it 1e-6 of sensor noise moved ``follow`` by up to 7e-3
 #: rad at levels 3 and 4 (the answer sits where the solution ranges shrink to a point, and
 #: the bisections' last step moves it there).
 HOLD_ANGLE = 5e-5
