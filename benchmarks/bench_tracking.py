@@ -43,6 +43,14 @@ STEP = 0.002  # m between targets
 JUMP = np.radians(5.0)
 
 
+def noisy(p, e, rng) -> tuple[np.ndarray, np.ndarray]:
+    """The pose (p, e) tilted by 1e-6 rad about a random axis and moved by 1e-6 m."""
+    axis = np.cross(e, rng.normal(size=3))
+    axis /= np.linalg.norm(axis)
+    e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
+    return p + 1e-6 * rng.normal(size=3) / np.sqrt(3), e2
+
+
 def walk(design, rng, steps: int) -> np.ndarray:
     """Configurations (steps, 6) whose tool points lie STEP apart, all valid."""
     while True:
@@ -99,10 +107,7 @@ def main(argv=None) -> None:
                 else:
                     forced += 1
             # noise around this pose: 1e-6 rad of tilt, 1e-6 m of shift
-            axis = np.cross(e, rng.normal(size=3))
-            axis /= np.linalg.norm(axis)
-            e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
-            p2 = p + 1e-6 * rng.normal(size=3) / np.sqrt(3)
+            p2, e2 = noisy(p, e, rng)
             r2 = ik.solve(d, p2, e2, current=r.follow)
             noise_flagged += r2.family_ended
             if r2.follow is not None:
@@ -185,10 +190,7 @@ def leaving_paths(design, rng, n: int):
             flagged.append(r.family_ended)
             current = r.follow
             # the same 1e-6 rad / 1e-6 m of noise as on the walks, from this answer
-            axis = np.cross(e, rng.normal(size=3))
-            axis /= np.linalg.norm(axis)
-            e2 = e * np.cos(1e-6) + np.cross(axis, e) * np.sin(1e-6)
-            p2 = p0 + k * STEP * out + 1e-6 * rng.normal(size=3) / np.sqrt(3)
+            p2, e2 = noisy(p0 + k * STEP * out, e, rng)
             r2 = ik.solve(design, p2, e2, current=current)
             if r2.follow is not None:
                 # against the least joint motion between the two answers' poses

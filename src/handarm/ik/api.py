@@ -10,7 +10,7 @@ import numpy as np
 from handarm.design import ArmDesign
 from handarm.ik._common import wrap
 from handarm.ik._polish import least_motion
-from handarm.ik.degrade import ORDERS, degrade_target
+from handarm.ik.degrade import ORDERS, _angle, degrade_target
 from handarm.ik.exact import _exact, check_inputs
 from handarm.ik.results import IKResult
 
@@ -92,7 +92,7 @@ def solve(
     v = _cone_direction(e, current)
     result = None if v is None else _exact(design, p, v, current)
     if result is not None and result.count:
-        result = dataclasses.replace(result, direction_error=_angle(v, e))
+        result = dataclasses.replace(result, direction_error=float(_angle(v, e)))
     else:
         result = _exact(design, p, e, current)
     if not (result.count or not degrade):
@@ -101,7 +101,7 @@ def solve(
         result = degrade_target(design, p, e if v is None else v, current, order)
         if v is not None:
             result = dataclasses.replace(
-                result, direction_error=_angle(result.achieved_direction, e)
+                result, direction_error=float(_angle(result.achieved_direction, e))
             )
     _check_finite(result)
     return _with_motion(design, result, current)
@@ -166,11 +166,6 @@ def _cone_direction(e, current) -> np.ndarray | None:
     if math.cos(math.atan2(e[1], e[0]) - psi) < 0.0:
         psi += math.pi
     return np.array([h * math.cos(psi), h * math.sin(psi), e[2]])
-
-
-def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    """Angle between unit vectors (rad), robust near 0."""
-    return 2.0 * math.atan2(float(np.linalg.norm(a - b)), float(np.linalg.norm(a + b)))
 
 
 def _check_finite(result: IKResult) -> None:

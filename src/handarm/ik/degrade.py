@@ -601,12 +601,11 @@ def _seeds(design: ArmDesign, p: np.ndarray, current) -> list:
     cloud_q, cloud_p = _position_cloud(design)
     # the nearest that are valid (in a scene, many near p may meet an obstacle)
     dist = np.linalg.norm(cloud_p - p, axis=1)
-    wanted = _SEEDS
-    k = min(_SCENE_NEAR_FIRST * wanted, len(dist) - 1)
+    k = min(_SCENE_NEAR_FIRST * _SEEDS, len(dist) - 1)
     closest = np.argpartition(dist, k)[:k]
     near = cloud_q[closest[np.argsort(dist[closest])]]
     # lazily: a validity test costs ~25 us
-    seeds.extend(itertools.islice((q for q in near if _valid(design, q)), wanted))
+    seeds.extend(itertools.islice((q for q in near if _valid(design, q)), _SEEDS))
     return seeds
 
 
