@@ -142,8 +142,8 @@ def main(argv=None) -> None:
         f"motion that follows the pose (pinv(J) dx): median {np.median(n[:, 1]):.2f}x, "
         f"largest {n[:, 1].max():.2f}x; flagged family_ended: {noise_flagged}"
     )
-    lv, ls, lf, ln = leaving
-    ls, lf = np.array(ls), np.array(lf, bool)
+    lv, ls, lf, ln, lr = leaving
+    ls, lf, lr = np.array(ls), np.array(lf, bool), np.array(lr)
     print(
         f"leaving the workspace ({args.targets} straight paths, 2 mm steps): levels met "
         f"{dict(sorted(lv.items(), reverse=True))}; step (deg, largest joint) median "
@@ -151,9 +151,16 @@ def main(argv=None) -> None:
     )
     for lim in (20.0, 45.0):
         over = ls > lim
+        quiet = over & ~lf
         print(
             f"  steps > {lim:g} deg: {over.sum()}, flagged {np.sum(over & lf)}; "
             f"largest unflagged {np.max(ls[~lf]):.2f} deg"
+            + (
+                f"; the unflagged ones moved {np.median(lr[quiet]):.2f}x (median), "
+                f"{lr[quiet].max():.2f}x (largest) the least joint motion to the answer's pose"
+                if quiet.any()
+                else ""
+            )
         )
     print("  noise 1e-6 rad / 1e-6 m on each answer, follow moved (rad, largest joint):")
     for level in sorted(ln, reverse=True):
@@ -172,7 +179,7 @@ def main(argv=None) -> None:
 def leaving_paths(design, rng, n: int):
     """Straight paths from a held pose out past the reach: levels, steps (deg), flags."""
     reach = float(np.sum(design.lengths))
-    levels, steps, flagged, noise = {}, [], [], {}
+    levels, steps, flagged, noise, ratios = {}, [], [], {}, []
     for _ in range(n):
         while True:
             q = rng.uniform(design.lower, design.upper)
@@ -188,6 +195,10 @@ def leaving_paths(design, rng, n: int):
                 continue
             steps.append(float(np.degrees(np.abs(r.follow - current).max())))
             flagged.append(r.family_ended)
+            # follow's move against the least joint motion to the answer's pose
+            least = least_joint_motion(design, current, r.achieved_position,
+                                       r.achieved_direction)  # fmt: skip
+            ratios.append(float(np.linalg.norm(r.follow - current)) / max(least, 1e-12))
             current = r.follow
             # the same 1e-6 rad / 1e-6 m of noise as on the walks, from this answer
             p2, e2 = noisy(p0 + k * STEP * out, e, rng)
@@ -201,7 +212,7 @@ def leaving_paths(design, rng, n: int):
                     (float(np.abs(r2.follow - current).max()), r2.family_ended,
                      moved / max(need, 1e-12))
                 )  # fmt: skip
-    return levels, steps, flagged, noise
+    return levels, steps, flagged, noise, ratios
 
 
 if __name__ == "__main__":

@@ -471,6 +471,51 @@ def test_a_range_ending_at_a_joint_limit_is_reported(paper):
     assert r.follow_distance <= nearest + 1e-6
 
 
+#: Leaving paths (benchmarks/bench_tracking.py's kind, paper's arm, 2 mm steps, e held)
+#: where the best relaxed pose jumps: (p, e, current = the previous answer's follow, the
+#: previous target). Before ANSWER_JUMP none of these was flagged.
+_ANSWER_JUMPS = [
+    # level 4: follow moved 222 degrees, the tool direction 164 degrees
+    ([-0.17596930874979871, 0.13299366385965067, -0.0627276099018315],
+     [0.6298911298131539, -0.4011464433514363, 0.6650704440652896],
+     [2.3561922251510725, 0.0845625690653186, 0.13376222839767832, -0.21129156762694654,
+      0.0015050570429689786, -1.9604764763332287],
+     [-0.174434597663495, 0.1318337635805414, -0.06218053291995534]),
+    # level 3: 85 degrees, the direction 50 degrees
+    ([0.055946124187437676, -0.20123048117449135, 0.03749168086234094],
+     [0.0279906277325499, 0.11941116633745721, -0.992450249691674],
+     [-0.33535153153693364, -2.580956827951785e-08, -1.4656932174046897,
+      0.6757962880822436, 0.002683993189243084, -1.2140871017038453],
+     [0.05541883071435014, -0.19933387938391728, 0.03713832093078321]),
+    # level 3: 24 degrees, the direction 10 degrees
+    ([0.12112711629230336, 0.13723875935178584, -0.1290020273386781],
+     [0.1614318738774498, 0.9258690131404016, -0.3416230680191753],
+     [0.14816412909867593, 0.0, 1.2500103559200102, -1.1849117560486908,
+      -0.002325010695126432, 0.40735735464657086],
+     [0.12004531991069296, 0.1360130685417678, -0.12784989946948475]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", range(len(_ANSWER_JUMPS)))
+def test_a_degraded_answer_that_jumps_is_reported(paper, case):
+    """A 2 mm step moves the best relaxed pose far: follow must jump, and says so.
+
+    Independently of the flag: current is the previous target's answer (solving that
+    target from it keeps it), and the new answer's tool direction, from forward kinematics
+    of follow, lies over 5 degrees from current's.
+    """
+    p, e, current, before = (np.array(x) for x in _ANSWER_JUMPS[case])
+    assert np.linalg.norm(p - before) == pytest.approx(2e-3)
+    held = ik.solve(paper, before, e, current=current)
+    assert held.reached_dof < 5 and np.abs(held.follow - current).max() < 1e-6
+    r = ik.solve(paper, p, e, current=current)
+    assert r.reached_dof < 5 and r.family_ended
+    assert np.abs(r.follow - current).max() > math.radians(20.0)
+    _, e_now = handarm.forward(paper, r.follow)
+    _, e_was = handarm.forward(paper, current)
+    assert math.degrees(math.acos(min(1.0, float(e_now @ e_was)))) > 5.0
+
+
 def test_straight_arm_is_an_exact_single_point(paper):
     """The straight arm's pose has one configuration: a zero-length range at level 5."""
     p, e = handarm.forward(paper, np.zeros(6))
