@@ -99,8 +99,9 @@ def reference_refine(design, p, e0, good):
 
 
 def test_compiled_search_ends_where_the_plain_one_does(paper):
-    """Level-3 starts of targets that need level 3: the compiled search (one call) and a
-    plain Python one with public counts end on the same direction."""
+    """Level-3 starts of targets that need level 3: the compiled search (one call, which
+    stops at a coarse ring and goes on from there) and a plain Python one with public counts
+    end on the same direction."""
     from tests.ik.conftest import valid_configurations
 
     import handarm
@@ -120,11 +121,50 @@ def test_compiled_search_ends_where_the_plain_one_does(paper):
         starts = degrade._nearest_solvable(paper, pk, sphere, 2)
         if not starts:
             continue
-        fast = degrade._refine(paper, pk, e, starts)
-        for start, got in zip(starts, fast, strict=True):
+        for start in starts:
+            # one start a call: searches from several that meet share an answer
+            # (test_searches_that_meet_cost_nothing_in_angle)
+            (got,) = degrade._refine(paper, pk, e, [start])
             want = reference_refine(paper, pk, e, start)
             assert angle(normal(got), normal(want)) < 1e-9, (pk, e, start)
         checked += 1
         if checked == 4:
             break
     assert checked == 4
+
+
+def test_searches_that_meet_cost_nothing_in_angle(paper):
+    """``refine_directions`` goes on to the fine tolerance only with searches that did not
+    meet an earlier one (``SAME_END``); the best direction it finds is as close to e as the
+    best of every start searched alone, to ``ANGLE_TOL``."""
+    from tests.ik.conftest import valid_configurations
+
+    import handarm
+    from handarm import ik
+    from handarm.ik import degrade
+
+    rng = np.random.default_rng(11)
+    q = valid_configurations(paper, rng, 300)
+    p = handarm.forward(paper, q)[0] * 1.06
+    checked = met = 0
+    for pk in p:
+        e = normal(rng.normal(size=3))
+        if ik.count_solutions(paper, pk[None], e[None])[0]:
+            continue
+        starts = degrade._nearest_solvable(paper, pk, degrade._sphere_by_angle(e), 6)
+        if len(starts) < 2:
+            continue
+        together = degrade._refine(paper, pk, e, starts)
+        alone = [degrade._refine(paper, pk, e, [s])[0] for s in starts]
+        best_together = min(angle(normal(v), e) for v in together)
+        best_alone = min(angle(normal(v), e) for v in alone)
+        assert best_together <= best_alone + degrade.ANGLE_TOL, (pk, e)
+        # the first search never meets another: it is the search alone, exactly
+        assert angle(normal(together[0]), normal(alone[0])) < 1e-12
+        pairs = zip(together, alone, strict=True)
+        met += sum(angle(normal(t), normal(a)) > 1e-12 for t, a in pairs)
+        checked += 1
+        if checked == 6:
+            break
+    assert checked == 6
+    assert met > 0  # some searches did meet (else this test shows nothing)

@@ -133,23 +133,29 @@ TANGENT_TURNS = (
 
 
 @nb.njit(**JIT)
-def pattern_search(p, psi, e0, good, cos_ring, sin_ring, top, tol, rounds, a, mdl, sc, scene, out):
+def pattern_search(
+    p, psi, e0, good, cos_ring, sin_ring, top, step, tol, rounds, a, mdl, sc, scene, ends, out
+):
     """Move the solvable direction ``good`` towards e0 by rings of trial directions, into out.
 
     A ring of ``len(cos_ring)`` directions at angle ``step`` around the present one, and
     the directions at that angle turned by ``TANGENT_TURNS`` from either tangent of the
     circle round e0 towards e0; of those closer to e0, the closest solvable is taken. The
-    step doubles after a move (up to ``top``) and halves after a miss, down to ``tol``; at
-    most ``rounds`` rings.
+    step (``step`` at first) doubles after a move (up to ``top``) and halves after a miss,
+    down to ``tol``; at most ``rounds`` rings. Returns (step, rings left, -1): a search stopped
+    at a coarser ``tol`` goes on from there exactly as one run would have.
+
+    ``ends`` (k, 3): where earlier searches stopped. A move to within ``SAME_END`` of one of
+    them, no closer to e0 than it, ends the search there, returning that row's index.
     """
     gx, gy, gz = good[0], good[1], good[2]
     m = cos_ring.shape[0] + 2 * len(TANGENT_TURNS)
     tx, ty, tz, ang = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     order = np.empty(m, np.int64)
-    step = top
-    for _ in range(rounds):
+    while rounds > 0:
         if step <= tol:
             break
+        rounds -= 1
         a0 = angle3(gx, gy, gz, e0[0], e0[1], e0[2])
         t1x, t1y, t1z, t2x, t2y, t2z = tangents(gx, gy, gz)
         cs, ss = math.cos(step), math.sin(step)
@@ -192,23 +198,79 @@ def pattern_search(p, psi, e0, good, cos_ring, sin_ring, top, tol, rounds, a, md
                 gx, gy, gz = tx[k], ty[k], tz[k]
                 moved = True
                 break
+        if moved:
+            for j in range(ends.shape[0]):
+                if angle3(gx, gy, gz, ends[j, 0], ends[j, 1], ends[j, 2]) <= SAME_END and (
+                    angle3(ends[j, 0], ends[j, 1], ends[j, 2], e0[0], e0[1], e0[2]) <= ang[k]
+                ):
+                    out[0], out[1], out[2] = gx, gy, gz
+                    return step, rounds, j
         step = min(2.0 * step, top) if moved else 0.5 * step
     out[0], out[1], out[2] = gx, gy, gz
+    return step, rounds, -1
+
+
+#: The pattern searches of ``refine_directions`` first stop at this ring (rad) ...
+COARSE = 1e-3
+#: ... and one that comes within this angle (rad) of where an earlier one stopped, no
+#: closer to e0, is that one's search: only the first goes on to ``tol``. Searches from
+#: different starts mostly end at one or two places (of 31 level-3 targets of
+#: benchmarks/bench_degrade.py's kind, 6 starts each: one place on 24, two on 7), and
+#: those that met there ended within 9e-6 rad of each other's angle to e0 when all went on.
+SAME_END = 3e-3
 
 
 @nb.njit(**JIT)
 def refine_directions(
     p, psi, e0, starts, cos_ring, sin_ring, top, tol, rounds, a, lower, upper, mdl, scene, out
 ):
-    """Each solvable start (k, 3) moved to the boundary and along it towards e0, into out."""
+    """Each solvable start (k, 3) moved to the boundary and along it towards e0, into out.
+
+    Every search runs to the ring ``COARSE``, and one that comes near where an earlier one
+    stopped (``SAME_END``) ends there; then only the searches that stopped on their own go
+    on to ``tol``, and the others take the answer of the one they met.
+    """
     pi, pf, coef, n_pieces, obs, c = scene
     sc = search_scratch(lower, upper, mdl, n_pieces, obs.shape[0])
     edge = np.empty(3)
-    for i in range(starts.shape[0]):
+    k = starts.shape[0]
+    coarse = np.empty((k, 3))  # rows 0..n_own - 1: the searches that stopped on their own
+    steps = np.empty(k)
+    left = np.empty(k, np.int64)
+    same = np.empty(k, np.int64)  # start i's search: row same[i] of coarse
+    n_own = 0
+    for i in range(k):
         to_boundary(p, psi, e0, starts[i], tol, a, mdl, sc, scene, edge)
+        step, rings, met = pattern_search(
+            p, psi, e0, edge, cos_ring, sin_ring, top, top, max(tol, COARSE), rounds, a, mdl,
+            sc, scene, coarse[:n_own], coarse[n_own],
+        )  # fmt: skip
+        if met < 0:
+            # stopped on its own, maybe next to where an earlier one did
+            ai = angle3(coarse[n_own, 0], coarse[n_own, 1], coarse[n_own, 2], e0[0], e0[1], e0[2])
+            for j in range(n_own):
+                near = angle3(coarse[n_own, 0], coarse[n_own, 1], coarse[n_own, 2], coarse[j, 0],
+                              coarse[j, 1], coarse[j, 2])  # fmt: skip
+                if (
+                    near <= SAME_END
+                    and angle3(coarse[j, 0], coarse[j, 1], coarse[j, 2], e0[0], e0[1], e0[2]) <= ai
+                ):
+                    met = j
+                    break
+        if met >= 0:
+            same[i] = met
+        else:
+            same[i] = n_own
+            steps[n_own], left[n_own] = step, rings
+            n_own += 1
+    fine = np.empty((max(n_own, 1), 3))
+    for j in range(n_own):
         pattern_search(
-            p, psi, e0, edge, cos_ring, sin_ring, top, tol, rounds, a, mdl, sc, scene, out[i]
-        )
+            p, psi, e0, coarse[j], cos_ring, sin_ring, top, steps[j], tol, left[j], a, mdl, sc,
+            scene, coarse[:0], fine[j],
+        )  # fmt: skip
+    for i in range(k):
+        out[i, 0], out[i, 1], out[i, 2] = fine[same[i], 0], fine[same[i], 1], fine[same[i], 2]
 
 
 #: Circles of level 4 (``handarm.ik.degrade``): directions of e's yaw at every pitch (a

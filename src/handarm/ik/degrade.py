@@ -25,7 +25,9 @@ reports level 4 when that direction happens to keep pitch or yaw.
 Searches over directions are exact at their final step: a grid finds the solvable region
 closest to e and bisection pins its boundary to ``ANGLE_TOL``; the level-3 search also starts
 from directions of valid configurations that reach p (so small caps of solvable directions
-near the reach sphere are not missed) and slides along the boundary towards e. Level 4's
+near the reach sphere are not missed) and slides along the boundary towards e; the searches
+run to a coarse ring first, and only those that did not meet an earlier one go on to
+``ANGLE_TOL`` (``handarm.ik._search.refine_directions``). Level 4's
 grid tests each direction with the joint limits widened by ``_SLIVER_WIDEN`` first, and
 scans runs of directions solvable only so 32 times finer (arcs narrower than the grid,
 where a joint sits at its limit); it also projects the directions of those configurations
