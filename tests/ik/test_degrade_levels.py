@@ -446,6 +446,27 @@ def test_noise_on_a_degraded_target_keeps_follow(paper, case):
         assert r.direction_error <= alone.direction_error + HOLD_ANGLE
 
 
+def test_a_held_level2_target_does_not_creep(paper):
+    """The same unreachable target solved again and again from its own follow (a loop
+    holding still): follow stays put. Each polish from current used to gain 2e-9 m and move
+    follow 0.9, 0.5, 0.3 ... degrees, flagged family_ended from the second call on (a hostile
+    check's case)."""
+    from handarm.ik.degrade import HOLD_DISTANCE
+
+    p = np.array([0.016975288421196708, 0.14911256188678465, 0.16370428725149527])
+    e = np.array([0.989108783660329, 0.044118185510304025, -0.14041865899253894])
+    current = np.array([1.435733428331349, 0.03912673329196742, -0.013136059069413009,
+                        1.5702157663246252, -0.0, -7.651046855887236e-06])  # fmt: skip
+    alone = ik.solve(paper, p, e)
+    start = current
+    for _ in range(8):
+        r = ik.solve(paper, p, e, current=current)
+        assert r.reached_dof == 2 and not r.family_ended
+        assert r.position_error <= alone.position_error + HOLD_DISTANCE
+        current = r.follow
+    assert np.abs(current - start).max() < 1e-6
+
+
 def test_a_range_ending_at_a_joint_limit_is_reported(paper):
     """Joint 2 at its limit, the target pushed past it: follow must jump, and says so."""
     from handarm.ik.api import FAMILY_END_RATIO, least_joint_motion
@@ -514,6 +535,43 @@ def test_a_degraded_answer_that_jumps_is_reported(paper, case):
     _, e_now = handarm.forward(paper, r.follow)
     _, e_was = handarm.forward(paper, current)
     assert math.degrees(math.acos(min(1.0, float(e_now @ e_was)))) > 5.0
+
+
+#: Exact targets next to a singular pose (a hostile check's, paper's arm): the tool
+#: direction tilted by 0.23 and 0.5 degrees from current's pose, p kept; follow must jump
+#: 67 and 153 degrees, and the first-order least motion (1,219 rad on the first) hid it.
+_EXACT_JUMPS = [
+    ([-0.031000809859168088, -0.13926902026999216, -0.02304996807717935],
+     [-0.006750832975442037, -0.008553858872106971, -0.999940627113697],
+     [-0.9962002031793775, -0.0008351705453352905, -1.5694174854506775, 1.4373915771528218,
+      -1.9065662656934603, -1.0931160104898763]),
+    ([-0.031000809859168088, -0.13926902026999216, -0.02304996807717935],
+     [-0.004995628421605196, -0.017101563727098677, -0.9998412775109664],
+     [-1.9857149598897186, 1.1649969144136034, -1.418208265692527, 2.102235278032113,
+      -2.4312782320557393, -1.230856265463778]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", range(len(_EXACT_JUMPS)))
+def test_an_exact_jump_next_to_a_singular_pose_is_reported(paper, case):
+    """A small tilt near a singular pose: no configuration of any range lies near current
+    (dense sampling), so follow jumps, and says so."""
+    from handarm.ik.api import ANSWER_JUMP
+
+    p, e, current = (np.array(x) for x in _EXACT_JUMPS[case])
+    p_c, e_c = handarm.forward(paper, current)
+    assert np.linalg.norm(p_c - p) < 1e-12 and math.degrees(math.acos(e_c @ e)) < 0.51
+    r = ik.solve(paper, p, e, current=current)
+    assert r.reached_dof == 5 and r.family_ended
+    nearest = math.inf
+    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+        qs, ok = ik.configurations_along(
+            paper, p, e, br, np.linspace(lo, hi, 4001), azimuth=r.azimuth
+        )
+        qs = qs[ok & handarm.is_valid(paper, qs)]
+        nearest = min(nearest, float(np.linalg.norm(qs - current, axis=1).min()))
+    assert nearest > ANSWER_JUMP
+    assert r.follow_distance <= nearest + 1e-6
 
 
 def test_straight_arm_is_an_exact_single_point(paper):

@@ -115,12 +115,15 @@ def solve(
 FAMILY_END_RATIO = 10.0
 #: ... and more than this (rad): a microradian is far below a servo's step (1.5e-3 rad)
 FAMILY_END_FLOOR = 1e-6
-#: A degraded answer whose pose lies beyond first order from ``current``'s (the least joint
-#: motion to it over this, rad) while ``follow`` moves over this too: the best relaxed pose
-#: jumped to another region (the levels are optimal per target, not continuous along a
-#: path), and the family of answers ``current`` lay on ended. 0.35 rad is 20 degrees; 2 mm
-#: steps of exactly reachable paths need under 0.25 rad of least motion (99th percentile,
-#: benchmarks/bench_tracking.py), and 1e-6 of noise on a degraded answer about 1e-5 rad.
+#: An answer whose pose lies beyond first order from ``current``'s (the least joint motion
+#: to it over this, rad) while ``follow`` moves over this too: the ratio above says nothing
+#: there (first order does not hold), and the family ``current`` lay on ended. At a degraded
+#: level the best relaxed pose jumped to another region (the levels are optimal per target,
+#: not continuous along a path); at an exact one, near a singular pose, where the least
+#: motion blows up (1,219 rad for a 67-degree jump a hostile check found). 0.35 rad is 20
+#: degrees; 2 mm steps of exactly reachable paths need under 0.25 rad of least motion (99th
+#: percentile, benchmarks/bench_tracking.py), and 1e-6 of noise on a degraded answer about
+#: 1e-5 rad.
 ANSWER_JUMP = 0.35
 
 
@@ -131,8 +134,8 @@ def _with_motion(design: ArmDesign, result: IKResult, current) -> IKResult:
     moved = float(np.linalg.norm(result.follow - current))
     least = least_joint_motion(design, current, result.achieved_position, result.achieved_direction)
     ended = moved > FAMILY_END_RATIO * least + FAMILY_END_FLOOR
-    if result.reached_dof < 5 and least > ANSWER_JUMP and moved > ANSWER_JUMP:
-        ended = True  # the answer itself jumped
+    if least > ANSWER_JUMP and moved > ANSWER_JUMP:
+        ended = True  # beyond first order, and follow jumped
     return dataclasses.replace(result, follow_distance=moved, family_ended=ended)
 
 

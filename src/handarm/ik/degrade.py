@@ -657,7 +657,13 @@ def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
         if err < best_err - 1e-12:
             best_q, best_err = q, float(err)
     if current is not None and best_q is not None:
-        # ties (within HOLD_DISTANCE) go to the configuration nearest current (see _choose)
+        # ties (within HOLD_DISTANCE) go to the configuration nearest current (see _choose);
+        # current itself is one, unpolished: where the distance is flat (the nearest point
+        # of a contact or a fold), each polish from current gained 2e-9 m and moved it up
+        # to 0.9 degrees, so a held target crept
+        if _valid(design, current):
+            qs = np.vstack([qs, current])
+            errs = np.append(errs, float(np.linalg.norm(_pose(design, current)[0] - p)))
         tied = np.flatnonzero(errs <= best_err + HOLD_DISTANCE)
         k = tied[np.argmin(np.linalg.norm(qs[tied] - current, axis=1))]
         best_q, best_err = qs[k], float(errs[k])

@@ -55,11 +55,11 @@ class IKResult:
         target (a joint limit reached, two links met, the target out of its reach), so
         ``follow`` had to jump to another range: it moved more than ``FAMILY_END_RATIO``
         (10) times the least joint motion that reaches the target's pose from ``current``
-        (to first order, ``handarm.ik.api.least_joint_motion``). At a degraded level also
-        when the best relaxed pose itself jumped (the levels are optimal per target, not
-        continuous along a path): that least motion and ``follow``'s move both exceed
-        ``ANSWER_JUMP`` (0.35 rad). A loop that sees it should slow down or ask before
-        sending ``follow``.
+        (to first order, ``handarm.ik.api.least_joint_motion``). Also when that least
+        motion and ``follow``'s move both exceed ``ANSWER_JUMP`` (0.35 rad), where first
+        order does not hold: a degraded answer whose best relaxed pose jumped (the levels
+        are optimal per target, not continuous along a path), or a jump next to a singular
+        pose. A loop that sees it should slow down or ask before sending ``follow``.
     clearances : ndarray, shape (k, 2) or None
         With a scene (``solve(..., scene=...)``): the smallest and largest clearance (m)
         between the printed links and the obstacles, sampled at 65 points of each range.
