@@ -467,6 +467,19 @@ def test_a_held_level2_target_does_not_creep(paper):
     assert np.abs(current - start).max() < 1e-6
 
 
+def nearest_in_ranges(design, r, p, e, q, samples: int) -> float:
+    """Joint-space distance from q to the nearest valid configuration of r's ranges,
+    sampled at ``samples`` points of each (independent of ``follow``)."""
+    nearest = math.inf
+    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+        qs, ok = ik.configurations_along(
+            design, p, e, br, np.linspace(lo, hi, samples), azimuth=r.azimuth
+        )
+        qs = qs[ok & handarm.is_valid(design, qs)]
+        nearest = min(nearest, float(np.linalg.norm(qs - q, axis=1).min(initial=math.inf)))
+    return nearest
+
+
 def test_a_range_ending_at_a_joint_limit_is_reported(paper):
     """Joint 2 at its limit, the target pushed past it: follow must jump, and says so."""
     from handarm.ik.api import FAMILY_END_RATIO, least_joint_motion
@@ -481,13 +494,7 @@ def test_a_range_ending_at_a_joint_limit_is_reported(paper):
     least = least_joint_motion(paper, q, p, e)
     assert r.follow_distance > FAMILY_END_RATIO * least
     # independently: no configuration of any range lies within that distance of q
-    nearest = math.inf
-    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
-        qs, ok = ik.configurations_along(
-            paper, p, e, br, np.linspace(lo, hi, 2001), azimuth=r.azimuth
-        )
-        qs = qs[ok & handarm.is_valid(paper, qs)]
-        nearest = min(nearest, float(np.linalg.norm(qs - q, axis=1).min()))
+    nearest = nearest_in_ranges(paper, r, p, e, q, 2001)
     assert nearest > FAMILY_END_RATIO * least
     assert r.follow_distance <= nearest + 1e-6
 
@@ -563,13 +570,7 @@ def test_an_exact_jump_next_to_a_singular_pose_is_reported(paper, case):
     assert np.linalg.norm(p_c - p) < 1e-12 and math.degrees(math.acos(e_c @ e)) < 0.51
     r = ik.solve(paper, p, e, current=current)
     assert r.reached_dof == 5 and r.family_ended
-    nearest = math.inf
-    for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
-        qs, ok = ik.configurations_along(
-            paper, p, e, br, np.linspace(lo, hi, 4001), azimuth=r.azimuth
-        )
-        qs = qs[ok & handarm.is_valid(paper, qs)]
-        nearest = min(nearest, float(np.linalg.norm(qs - current, axis=1).min()))
+    nearest = nearest_in_ranges(paper, r, p, e, current, 4001)
     assert nearest > ANSWER_JUMP
     assert r.follow_distance <= nearest + 1e-6
 
