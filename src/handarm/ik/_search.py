@@ -132,6 +132,31 @@ TANGENT_TURNS = (
 )  # fmt: skip
 
 
+#: The pattern searches of ``refine_directions`` first stop at this ring (rad) ...
+COARSE = 1e-3
+#: ... and one that comes within this angle (rad) of where an earlier one stopped, no
+#: closer to e0, is that one's search: only the first goes on to ``tol``. Searches from
+#: different starts mostly end at one or two places (of 31 level-3 targets of
+#: benchmarks/bench_degrade.py's kind, 6 starts each: one place on 24, two on 7), and
+#: those that met there ended within 9e-6 rad of each other's angle to e0 when all went on.
+SAME_END = 3e-3
+
+
+@nb.njit(**JIT)
+def _meets(gx, gy, gz, angle, ends, e0):
+    """The row of ``ends`` a search at (gx, gy, gz) has met, or -1.
+
+    The first within ``SAME_END`` of it and no farther from e0 than ``angle``, the search's
+    own angle to e0.
+    """
+    for j in range(ends.shape[0]):
+        if angle3(gx, gy, gz, ends[j, 0], ends[j, 1], ends[j, 2]) <= SAME_END and (
+            angle3(ends[j, 0], ends[j, 1], ends[j, 2], e0[0], e0[1], e0[2]) <= angle
+        ):
+            return j
+    return -1
+
+
 @nb.njit(**JIT)
 def pattern_search(
     p, psi, e0, good, cos_ring, sin_ring, top, step, tol, rounds, a, mdl, sc, scene, ends, out
@@ -199,25 +224,13 @@ def pattern_search(
                 moved = True
                 break
         if moved:
-            for j in range(ends.shape[0]):
-                if angle3(gx, gy, gz, ends[j, 0], ends[j, 1], ends[j, 2]) <= SAME_END and (
-                    angle3(ends[j, 0], ends[j, 1], ends[j, 2], e0[0], e0[1], e0[2]) <= ang[k]
-                ):
-                    out[0], out[1], out[2] = gx, gy, gz
-                    return step, rounds, j
+            j = _meets(gx, gy, gz, ang[k], ends, e0)
+            if j >= 0:
+                out[0], out[1], out[2] = gx, gy, gz
+                return step, rounds, j
         step = min(2.0 * step, top) if moved else 0.5 * step
     out[0], out[1], out[2] = gx, gy, gz
     return step, rounds, -1
-
-
-#: The pattern searches of ``refine_directions`` first stop at this ring (rad) ...
-COARSE = 1e-3
-#: ... and one that comes within this angle (rad) of where an earlier one stopped, no
-#: closer to e0, is that one's search: only the first goes on to ``tol``. Searches from
-#: different starts mostly end at one or two places (of 31 level-3 targets of
-#: benchmarks/bench_degrade.py's kind, 6 starts each: one place on 24, two on 7), and
-#: those that met there ended within 9e-6 rad of each other's angle to e0 when all went on.
-SAME_END = 3e-3
 
 
 @nb.njit(**JIT)
@@ -247,16 +260,8 @@ def refine_directions(
         )  # fmt: skip
         if met < 0:
             # stopped on its own, maybe next to where an earlier one did
-            ai = angle3(coarse[n_own, 0], coarse[n_own, 1], coarse[n_own, 2], e0[0], e0[1], e0[2])
-            for j in range(n_own):
-                near = angle3(coarse[n_own, 0], coarse[n_own, 1], coarse[n_own, 2], coarse[j, 0],
-                              coarse[j, 1], coarse[j, 2])  # fmt: skip
-                if (
-                    near <= SAME_END
-                    and angle3(coarse[j, 0], coarse[j, 1], coarse[j, 2], e0[0], e0[1], e0[2]) <= ai
-                ):
-                    met = j
-                    break
+            x, y, z = coarse[n_own, 0], coarse[n_own, 1], coarse[n_own, 2]
+            met = _meets(x, y, z, angle3(x, y, z, e0[0], e0[1], e0[2]), coarse[:n_own], e0)
         if met >= 0:
             same[i] = met
         else:
