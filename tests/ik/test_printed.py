@@ -272,3 +272,33 @@ def test_a_sliding_piece_sweeps_its_lengthened_segment_and_holds_its_shortened_o
     sx0, sy0, sx1, sy1, sr = _swept(xy, pf, 0, -1.0, 7)
     if dist(np.array([sx0, sy0]), np.array([sx1, sy1]), pt) <= sr:
         assert dist(a + t * e * u, b + t * e * u, pt) <= r + 1e-12
+
+
+#: A level-4 answer of the paper's arm (``benchmarks/bench_ik.py``'s "hard level 4 (a)"):
+#: l2 grazes l6, and the free range is a cap of clearance at most 1.2e-7 m, 0.13 mm wide.
+GRAZING_P = (-0.007995099319075539, -0.056149791856425005, -0.015041556422583029)
+GRAZING_E = (-0.27143998, 0.31211768, -0.91044104)
+
+
+def test_whether_a_direction_is_solvable_agrees_with_counting_next_to_a_grazing_contact():
+    """Asking whether stops at the first configuration the model finds free (a witness);
+    only a direction with none is certified throughout. Around a grazing contact, where the
+    free range shrinks to nothing, every answer agrees with ``count_solutions``."""
+    from handarm.ik.exact import solvable_checked
+
+    design = handarm.ArmDesign()
+    p, v = np.array(GRAZING_P), np.array(GRAZING_E)
+    v = v / np.linalg.norm(v)
+    axis = np.cross(v, [0.0, 0.0, 1.0])
+    axis /= np.linalg.norm(axis)
+    offsets = np.array([-1e-3, -1e-4, -1e-5, -1e-6, 0.0, 1e-6, 2e-6, 4e-6, 1e-5, 1e-4])
+    # turns of v about a horizontal axis, and random directions at the same point
+    turned = [v * math.cos(t) + np.cross(axis, v) * math.sin(t) for t in offsets]
+    rng = np.random.default_rng(3)
+    rand = rng.normal(size=(40, 3))
+    E = np.concatenate([turned, rand / np.linalg.norm(rand, axis=1)[:, None]])
+    P = np.repeat(p[None], len(E), axis=0)
+    counts = ik.count_solutions(design, P, E)
+    got = solvable_checked(design, P, E, np.zeros(len(E)))
+    np.testing.assert_array_equal(got, counts > 0)
+    assert 0 < counts[: len(offsets)].astype(bool).sum() < len(offsets)  # both sides met

@@ -371,6 +371,14 @@ def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
 
 
 @nb.njit(**JIT)
+def _fresh(stamp, motion):
+    """The stamp, for the model itself at the placed pose: nothing moves."""
+    new_pose(stamp)
+    motion[0] = -1.0
+    return stamp
+
+
+@nb.njit(**JIT)
 def printed_scratch(n_pieces):
     """Scratch arrays of ``printed_ranges`` for one solving thread."""
     return (
@@ -392,7 +400,9 @@ def printed_scratch(n_pieces):
 
 
 @nb.njit(**JIT)
-def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n_out, sure, mask0):
+def printed_ranges(
+    fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n_out, sure, mask0, witness
+):
     """Append to ``out[n_out:]`` the maximal stretches of [lo, hi] free under the model.
 
     [lo, hi] is a stretch where the joint limits hold on this branch. Stretches closer than
@@ -401,6 +411,12 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
     (decided at its middle alone). ``mask0``: the groups of piece pairs to test (the others
     never meet on this target). Returns the new count, or -1 if ``out`` (or the stack) is
     full.
+
+    ``witness``: whether, not where. The first stretch found free, or the first stretch
+    whose middle the model finds free (the model's test is strict, so that configuration
+    has free neighbours), is appended alone, unsure, and the search stops. Only a target
+    with no free configuration is certified throughout: next to a grazing contact a free
+    stretch is certified in pieces as narrow as its clearance (thousands of them).
     """
     pi, pf, groups, rows, c, coef = mdl[1], mdl[2], mdl[3], mdl[5], mdl[6], mdl[7]
     tnodes, toff, tdom, tmask = mdl[9], mdl[10], mdl[11], mdl[12]
@@ -457,6 +473,16 @@ def printed_ranges(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, scratch, out, n
         hit, unsure = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
         if hit or (narrow and unsure):
             continue  # an invalid stretch: the open range (if any) ends before it
+        if witness and (
+            unsure == 0
+            or not groups_status(unsure, frames, _fresh(stamp, motion), xy, pi, pf, groups,
+                                 rows, coef, motion, c)[0]
+        ):  # fmt: skip
+            if n_out >= out.shape[0]:
+                return -1
+            out[n_out, 0], out[n_out, 1] = ua, ub
+            sure[n_out] = False
+            return n_out + 1
         if unsure == 0:
             # a free stretch: extend the open range or start one
             joins = n_out > first and ua - out[n_out - 1, 1] <= MERGE_GAP

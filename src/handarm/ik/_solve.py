@@ -392,8 +392,9 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
                             n_sub = 1
                         else:
                             n_sub = printed_ranges(
-                                fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, sc, sub, 0, sure, mask
-                            )
+                                fr, dx, dy, lo, hi, elbow_b, elbow_e, a, mdl, sc, sub, 0, sure,
+                                mask, first and min_width == 0.0,
+                            )  # fmt: skip
                             if n_sub < 0:
                                 overflow = True
                                 n_sub = 0
