@@ -35,7 +35,7 @@ import numpy as np
 
 from handarm._collide import N_FRAMES, PLACED, groups_status, new_pose, place_frames, set_frames
 from handarm._pairtable import FREE, HIT, QUERY_STACK, query_box
-from handarm.ik._common import JIT, MERGE_GAP, wrap
+from handarm.ik._common import INLINE, JIT, MERGE_GAP, wrap
 
 #: Narrowest stretch of u (m) that is halved again; narrower ones are decided at their middle:
 #: no change of validity wider than this is missed.
@@ -102,7 +102,7 @@ def _elbow(px, py, b1, b2, elbow):
     return True, x * ux - y * uy, x * uy + y * ux
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def pose_frames(fr, dx, dy, u, elbow_b, elbow_e, a, frames):
     """Place every link frame at u on a branch, with no trigonometry (see ``_collide``).
 
@@ -248,7 +248,7 @@ def stretch_setup(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, frames, st_v, bv, bre
     return nbk if ok else -1
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def add_free(out, first, n_out, ua, ub):
     """Record the free stretch [ua, ub]; returns the new count, -1 if ``out`` is full.
 
@@ -264,7 +264,7 @@ def add_free(out, first, n_out, ua, ub):
     return n_out + 1
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def split_stretch(st_u, st_v, top, ua, um, ub, m0, m1, m2, m3, m4, m5, m6, m7):
     """Replace stack row ``top`` by its halves, the left one above: they come off in order."""
     for k in range(8):
@@ -279,7 +279,7 @@ def split_stretch(st_u, st_v, top, ua, um, ub, m0, m1, m2, m3, m4, m5, m6, m7):
     st_u[top, 0], st_u[top, 1] = um, ub
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def stretch_motion(st_v, top, ua, ub, m0, m1, m2, m3, m4, m5, m6, m7, breaks, bv, nbk, motion):
     """``motion`` of the stretch [ua, ub] on the stack at ``top`` (see ``groups_status``).
 
@@ -324,7 +324,7 @@ def joint_angles(v, dx, dy, ex, ey, out):
 _BOX_PAD = 1e-10
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def tables_status(mask, tmask, st_q, top, ua, ub, bq, breaks, nbk, tnodes, toff, tdom, qs, qb):
     """The joint-space tables' verdict on the stretch at ``top``: (hit, mask left to test).
 
@@ -370,7 +370,7 @@ def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
     return not hit
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def _fresh(stamp, motion):
     """The stamp, for the model itself at the placed pose: nothing moves."""
     new_pose(stamp)

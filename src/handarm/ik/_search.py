@@ -18,7 +18,7 @@ import math
 import numba as nb
 import numpy as np
 
-from handarm.ik._common import JIT, wrap
+from handarm.ik._common import INLINE, JIT, wrap
 from handarm.ik._obstacles import _count_target, count_scratch
 from handarm.ik._solve import _first_scratch, _has_range
 
@@ -80,7 +80,7 @@ def search_scratch(lower, upper, mdl, n_pieces, n_obs):
     return _first_scratch(lower, upper, mdl), scene_bufs, np.empty(3)
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def solvable(p, ex, ey, ez, psi, a, mdl, sc, scene):
     """Whether the direction (ex, ey, ez) (normalised here) has a solution at p.
 

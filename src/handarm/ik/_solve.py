@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 
 from handarm.ik._classify import canonical_intervals, canonical_valid
-from handarm.ik._common import JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
+from handarm.ik._common import INLINE, JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
 from handarm.ik._events import reach_half_width
 from handarm.ik._printed import configuration as _configuration
 from handarm.ik._printed import free_at, printed_ranges, printed_scratch
@@ -176,7 +176,7 @@ def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi
     )
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl, first):
     """``_solve_target`` at e's azimuth, or at the first that has a solution if e is vertical.
 
@@ -635,7 +635,7 @@ def _first_scratch(lower, upper, mdl):
     )
 
 
-@nb.njit(**JIT)
+@nb.njit(**INLINE)
 def _has_range(p, e, psi_vertical, a, mdl, sc):
     """1 if the target has a solution range, 0 if not, -1 if a buffer overflowed.
 
