@@ -724,8 +724,10 @@ def test_the_searches_count_as_count_solutions_does(paper):
     for p in P:
         want = solvable(paper, p, dirs)
         np.testing.assert_array_equal(_solvable(paper, p, dirs), want)
-        first = int(np.argmax(want)) if want.any() else -1
-        assert _first_solvable(paper, p, dirs) == first
+        for k in (1, 3):
+            np.testing.assert_array_equal(
+                _first_solvable(paper, p, dirs, k), np.flatnonzero(want)[:k]
+            )
     assert 0 < sum(solvable(paper, p, dirs).sum() for p in P) < len(P) * len(dirs)
 
 

@@ -289,6 +289,37 @@ def _near_groups(p, e, a, far):
     return mask
 
 
+@nb.njit(**INLINE)
+def _line_window(p, e, dx, dy, a, fr):
+    """Frames for L's direction (dx, dy) into ``fr``, and where both chains reach L.
+
+    Returns (u_lo, u_hi), the u-range where both reach (tau_B = u - fr[2], tau_E = -u -
+    fr[7]); no solution outside it, none at all when u_lo >= u_hi.
+    """
+    _frames(p, e, dx, dy, a, fr)
+    wb = reach_half_width(fr[0], fr[1], a[1], a[2])
+    wt = reach_half_width(fr[3], fr[4], a[5], a[4])
+    if wb < 0.0 or wt < 0.0:
+        return 1.0, 0.0
+    return max(-wb + fr[2], -wt - fr[7]), min(wb + fr[2], wt - fr[7])
+
+
+@nb.njit(**INLINE)
+def _reaches(p, e, a, fr):
+    """Whether both chains reach L for either sign of its direction (e not vertical).
+
+    ``_solve_target``'s first test, before its call: most directions the searches of
+    degradation try fail it (a level-2 target, out of reach, tries a whole sphere of them).
+    """
+    hn = math.sqrt(e[0] * e[0] + e[1] * e[1])
+    for s in range(2):
+        sgn = 1.0 if s == 0 else -1.0
+        u_lo, u_hi = _line_window(p, e, sgn * e[0] / hn, sgn * e[1] / hn, a, fr)
+        if u_lo < u_hi:
+            return True
+    return False
+
+
 @nb.njit(**JIT)
 def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first):
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
@@ -305,14 +336,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
     for s in range(2):
         sgn = 1.0 if s == 0 else -1.0
         dx, dy = sgn * hx / hn, sgn * hy / hn
-        _frames(p, e, dx, dy, a, fr)
-        # u-range where both chains reach L: tau_B = u - fr[2], tau_E = -u - fr[7]
-        wb = reach_half_width(fr[0], fr[1], a[1], a[2])
-        wt = reach_half_width(fr[3], fr[4], a[5], a[4])
-        if wb < 0.0 or wt < 0.0:
-            continue
-        u_lo = max(-wb + fr[2], -wt - fr[7])
-        u_hi = min(wb + fr[2], wt - fr[7])
+        u_lo, u_hi = _line_window(p, e, dx, dy, a, fr)
         if u_lo >= u_hi:
             continue
         ok1 = canonical_intervals(
@@ -643,24 +667,31 @@ def _has_range(p, e, psi_vertical, a, mdl, sc):
     direction is solvable costs a fraction of counting its ranges.
     """
     work, q, br, iv, used = sc
+    if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS and not _reaches(p, e, a, work[8]):
+        return 0
     return _solve_any_azimuth(p, e, psi_vertical, a, q, br, iv, used, work, mdl, True)
 
 
 @nb.njit(**JIT)
-def first_solvable(P, E, psi_vertical, a, lower, upper, mdl):
-    """Index of the first target (in order) that has a solution range, or -1.
+def first_solvable(P, E, psi_vertical, a, lower, upper, mdl, out):
+    """Indices of the first ``len(out)`` targets (in order) that have a solution range.
 
-    ``-2 - i`` if a buffer overflowed at target i. On the calling thread: the searches of
-    degradation ask whether, in order along a circle, not how many.
+    Into ``out``; returns how many were found, or ``-1 - i`` if a buffer overflowed at
+    target i. On the calling thread: the searches of degradation ask whether, in order
+    along a circle or out from a direction, not how many.
     """
     sc = _first_scratch(lower, upper, mdl)
+    m = 0
     for i in range(P.shape[0]):
+        if m == out.shape[0]:
+            break
         n = _has_range(P[i], E[i], psi_vertical[i], a, mdl, sc)
-        if n > 0:
-            return i
         if n < 0:
-            return -2 - i
-    return -1
+            return -1 - i
+        if n > 0:
+            out[m] = i
+            m += 1
+    return m
 
 
 @nb.njit(**JIT)

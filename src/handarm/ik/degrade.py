@@ -148,12 +148,11 @@ def _solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     return S.count_solutions(design, P, dirs, scene=scene[0], clearance=scene[1]) > 0
 
 
-def _first_solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray) -> int:
-    """Index of the first of the unit directions ``dirs`` solvable at p, or -1."""
+def _first_solvable(design: ArmDesign, p: np.ndarray, dirs: np.ndarray, k: int = 1) -> np.ndarray:
+    """Indices of the first k of the unit directions ``dirs`` solvable at p (fewer if not)."""
     if _SCENE.get() is not None:
-        ok = _solvable(design, p, dirs)
-        return int(np.argmax(ok)) if ok.any() else -1
-    return S.first_solvable_checked(design, *_targets(p, dirs))
+        return np.flatnonzero(_solvable(design, p, dirs))[:k]
+    return S.first_solvable_checked(design, *_targets(p, dirs), k=k)
 
 
 def _solve_exact(design: ArmDesign, p, e, current) -> IKResult:
@@ -310,21 +309,23 @@ def _sphere_by_angle(e0: np.ndarray) -> np.ndarray:
 
 
 def _nearest_solvable(design, p, dirs, k: int, block: int = 64) -> list[np.ndarray]:
-    """The first k solvable of ``dirs`` (in their order): tested in order, a block at a time.
+    """The first k solvable of ``dirs`` (in their order).
 
-    Each block stops at its first solvable direction, so the directions beyond the k-th
-    solvable one (most of a 2,000-point sphere when e0 is near a solvable region) are never
-    tested.
+    Tested in order, stopping at the k-th: the directions beyond it (most of a 2,000-point
+    sphere when e0 is near a solvable region) are never tested. Without a scene one
+    compiled call does it; in a scene a block of ``block`` at a time.
     """
+    if _SCENE.get() is None:
+        return list(dirs[_first_solvable(design, p, dirs, k)])
     out: list[np.ndarray] = []
     start = 0
     while len(out) < k and start < len(dirs):
-        i = _first_solvable(design, p, dirs[start : start + block])
-        if i < 0:
+        found = _first_solvable(design, p, dirs[start : start + block])
+        if not len(found):
             start += block
             continue
-        out.append(dirs[start + i])
-        start += i + 1
+        out.append(dirs[start + found[0]])
+        start += found[0] + 1
     return out
 
 

@@ -594,12 +594,18 @@ def sub_problems_solvable(design: ArmDesign, p, e, azimuth: float) -> tuple[bool
     return bool(base), bool(tip)
 
 
-def first_solvable_checked(design: ArmDesign, P, E, psi, min_width: float = 0.0) -> int:
-    """Index of the first checked target (in order) that has a solution range, or -1."""
-    i = int(K.first_solvable(*_targets_args(design, P, E, psi, min_width)))
-    if i < -1:
+def first_solvable_checked(
+    design: ArmDesign, P, E, psi, min_width: float = 0.0, k: int = 1
+) -> np.ndarray:
+    """Indices of the first k checked targets (in order) that have a solution range.
+
+    Fewer if fewer have one; one compiled call, which stops at the k-th.
+    """
+    out = np.empty(k, np.int64)
+    m = int(K.first_solvable(*_targets_args(design, P, E, psi, min_width), out))
+    if m < 0:
         raise RuntimeError("IK: more solution ranges than the internal buffers hold")
-    return i
+    return out[:m]
 
 
 def configurations_along(
