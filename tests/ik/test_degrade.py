@@ -180,7 +180,7 @@ def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):
     np.testing.assert_allclose(cloud_p, handarm.forward(d, cloud_q)[0], atol=1e-15)
     rng = np.random.default_rng(3)
     for p in rng.uniform(-0.3, 0.3, (12, 3)):
-        qs, errs = degrade._polished(d, p, None)
+        qs, errs, _ = degrade._polished(d, p, None)
         n_start = len(degrade._start_seeds(d, p, None))
         assert len(qs) == n_start + degrade._SEEDS
         ok = np.isfinite(errs)
@@ -191,7 +191,7 @@ def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):
     # with no polish steps the cloud rows are the seeds themselves
     monkeypatch.setattr(degrade, "_POLISH_STEPS", 0)
     for p in rng.uniform(-0.3, 0.3, (12, 3)):
-        qs, _ = degrade._polished(d, p, None)
+        qs, _, _ = degrade._polished(d, p, None)
         n_start = len(degrade._start_seeds(d, p, None))
         order = np.argsort(np.linalg.norm(cloud_p[valid] - p, axis=1), kind="stable")
         np.testing.assert_array_equal(qs[n_start:], cloud_q[valid][order[: degrade._SEEDS]])

@@ -515,8 +515,9 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     # points, polished): one with e's direction is a degenerate exact pose (the straight
     # arm); level 3 starts from their directions, and level 4 projects them onto its circles
     # (small caps of solvable directions near the reach)
+    polished = _polished(design, p, current)
     seeds = []
-    for q in _configs_reaching(design, p, current):
+    for q in _configs_reaching(polished):
         v = _pose(design, q)[1]
         if float(_angle(v, e)) < 1e-9:
             return _single_point(design, q, p, e, 5, 0.0, current)
@@ -532,7 +533,7 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     if order == "angle" and result is not None and keeps(e, result.achieved_direction):
         result = dataclasses.replace(result, reached_dof=4)
     if result is None:
-        result = _two_dof(design, p, e, current)
+        result = _two_dof(design, p, e, current, polished)
     return result
 
 
@@ -612,13 +613,12 @@ def _seeds(design: ArmDesign, p: np.ndarray, current) -> list:
     return seeds
 
 
-def _polished(design: ArmDesign, p: np.ndarray, current, nearest=False):
-    """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,)).
+def _polished(design: ArmDesign, p: np.ndarray, current):
+    """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,), cut).
 
     Invalid seeds have distance inf. Under the printed-link model with no scene one
-    compiled call does it all (``handarm.ik._nearest``); else seed by seed. ``nearest``
-    (level 2): under the printed-link model with no scene the polished seeds then slide
-    along the collision boundaries (``handarm.ik._nearest.slide_best``).
+    compiled call does it all (``handarm.ik._nearest``), and ``cut`` (k,) says which polish
+    a collision cut short (see ``_slid``); else seed by seed, and ``cut`` is None.
     """
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
@@ -633,27 +633,44 @@ def _polished(design: ArmDesign, p: np.ndarray, current, nearest=False):
             seeds, cloud_q, cloud_p, n_cloud, target, design.lengths, design.lower,
             design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err, blocked,
         )  # fmt: skip
-        if nearest:
-            slide_best(
-                target, design.lengths, design.lower, design.upper, pi, pf, groups, rows, c,
-                out_q, out_err, blocked, n,
-            )  # fmt: skip
-        return out_q[:n], out_err[:n]
+        return out_q[:n], out_err[:n], blocked[:n]
     qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
-    return np.array(qs).reshape(-1, 6), np.array(errs)
+    return np.array(qs).reshape(-1, 6), np.array(errs), None
 
 
-def _configs_reaching(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
-    """Valid configurations whose tool point is p (to 1e-9 m), from polished seeds."""
-    qs, errs = _polished(design, p, current)
+def _slid(design: ArmDesign, p: np.ndarray, polished) -> tuple[np.ndarray, np.ndarray]:
+    """Level 2's seeds: the ``_polished`` ones, those a collision cut short slid on.
+
+    They slide along the collision boundaries (``handarm.ik._nearest.slide_best``).
+    """
+    qs, errs, cut = polished
+    if cut is None:
+        return qs, errs
+    qs, errs = qs.copy(), errs.copy()
+    pi, pf, groups, _, rows, c = kernel_env(design)
+    slide_best(
+        np.ascontiguousarray(p, dtype=float), design.lengths, design.lower, design.upper, pi,
+        pf, groups, rows, c, qs, errs, cut, len(qs),
+    )  # fmt: skip
+    return qs, errs
+
+
+def _configs_reaching(polished) -> list[np.ndarray]:
+    """Valid configurations whose tool point is p (to 1e-9 m), of the ``_polished`` seeds."""
+    qs, errs, _ = polished
     return [q for q, err in zip(qs, errs, strict=True) if err < 1e-9]
 
 
-def _two_dof(design: ArmDesign, p, e, current) -> IKResult:
-    """Nearest reachable tool point; the tool points at p when the arm can."""
+def _two_dof(design: ArmDesign, p, e, current, polished=None) -> IKResult:
+    """Nearest reachable tool point; the tool points at p when the arm can.
+
+    ``polished``: the seeds already polished towards p (``_polished``), if they are.
+    """
     best_q, best_err = None, math.inf
-    qs, errs = _polished(design, p, current, nearest=True)
+    if polished is None:
+        polished = _polished(design, p, current)
+    qs, errs = _slid(design, p, polished)
     for q, err in zip(qs, errs, strict=True):
         if err < best_err - 1e-12:
             best_q, best_err = q, float(err)
