@@ -29,8 +29,8 @@ RESTARTS = 4
 #: Bisection steps for the last valid point of a segment.
 BISECTIONS = 40
 #: Cloud configurations tested for validity first, per one wanted: about 3 in 4 are valid
-#: (where fewer are, the whole cloud is sorted). The nearest are kept by insertion, whose
-#: cost grows with their number: 40 per one wanted cost 3 ms a target with 32 wanted.
+#: (where fewer are, the whole cloud is sorted). The caller finds them with the cloud's k-d
+#: tree (``handarm.ik.degrade._cloud_tree``).
 NEAR_FIRST = 4
 #: Sliding: iterations for every polished seed, then (at most) for the best few of them.
 SLIDE_FIRST = 60
@@ -262,46 +262,20 @@ def tool_points(q, a):
 
 
 @nb.njit(**JIT)
-def nearest_cloud(cloud_p, target, k, out):
-    """Indices (into ``out``) of the k points of ``cloud_p`` (n, 3) nearest target, nearest first.
-
-    Returns how many were found (min(k, n)).
-    """
-    n = cloud_p.shape[0]
-    dist = np.full(k, np.inf)
-    m = 0
-    for i in range(n):
-        d = (
-            (cloud_p[i, 0] - target[0]) ** 2
-            + (cloud_p[i, 1] - target[1]) ** 2
-            + (cloud_p[i, 2] - target[2]) ** 2
-        )
-        if m < k or d < dist[m - 1]:
-            j = min(m, k - 1)
-            while j > 0 and dist[j - 1] > d:
-                dist[j] = dist[j - 1]
-                out[j] = out[j - 1]
-                j -= 1
-            dist[j] = d
-            out[j] = i
-            m = min(m + 1, k)
-    return m
-
-
-@nb.njit(**JIT)
 def polish_each(
-    seeds, cloud_q, cloud_p, n_cloud, target, a, lower, upper, steps, pi, pf, groups, rows, c,
-    out_q, out_err, out_blocked,
+    seeds, cloud_q, cloud_p, near, n_cloud, target, a, lower, upper, steps, pi, pf, groups,
+    rows, c, out_q, out_err, out_blocked,
 ):  # fmt: skip
     """Every seed polished towards target: the seeds, then the nearest cloud configurations.
 
     ``seeds`` (m, 6): starting configurations, each used if valid; then the ``n_cloud``
     valid configurations of ``cloud_q`` (within the limits, tested here nearest first, so
     the cloud needs no validity test of its own) whose points ``cloud_p`` lie nearest
-    target, nearest first. Row i of ``out_q`` / ``out_err`` / ``out_blocked`` gets the
-    polished configuration, its distance from target (inf for an invalid seed) and whether
-    a collision cut its polish short. Returns the number of rows filled (m + at most
-    n_cloud).
+    target, nearest first: from ``near``, the indices of the ``NEAR_FIRST * n_cloud``
+    nearest (nearest first), else from all, sorted here. Row i of ``out_q`` / ``out_err`` /
+    ``out_blocked`` gets the polished configuration, its distance from target (inf for an
+    invalid seed) and whether a collision cut its polish short. Returns the number of rows
+    filled (m + at most n_cloud).
     """
     sc = scratch(pi.shape[0])
     n = 0
@@ -316,14 +290,11 @@ def polish_each(
     if n_cloud <= 0:
         return n
     # the nearest NEAR_FIRST * n_cloud first; all of them, in order, if too few are valid
-    k = min(NEAR_FIRST * n_cloud, cloud_p.shape[0])
-    idx = np.empty(k, np.int64)
-    m = nearest_cloud(cloud_p, target, k, idx)
     env = (pi, pf, groups, rows, c, sc)
     out = (out_q, out_err, out_blocked)
-    found = _polish_valid_of(idx[:m], cloud_q, n_cloud, target, a, lower, upper, steps, env,
+    found = _polish_valid_of(near, cloud_q, n_cloud, target, a, lower, upper, steps, env,
                              out, n)  # fmt: skip
-    if found < n_cloud and m < cloud_p.shape[0]:
+    if found < n_cloud and near.shape[0] < cloud_p.shape[0]:
         order = np.argsort(np.sum((cloud_p - target) ** 2, axis=1), kind="mergesort")
         found = _polish_valid_of(order, cloud_q, n_cloud, target, a, lower, upper, steps, env,
                                  out, n)  # fmt: skip

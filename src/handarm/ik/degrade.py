@@ -57,7 +57,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import polish_each, slide_best, tool_points
+from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_points
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import (
     PITCH_CIRCLE,
@@ -559,6 +559,17 @@ def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
     return q, tool_points(q, design.lengths)
 
 
+@functools.lru_cache(maxsize=8)
+def _cloud_tree(design: ArmDesign):
+    """A k-d tree of the cloud's tool points: the nearest of a point in 30 us, not 90.
+
+    It takes about 9 ms to build, once per design.
+    """
+    from scipy.spatial import cKDTree  # not at import: most uses of the IK never degrade
+
+    return cKDTree(_position_cloud(design)[1])
+
+
 def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
     """A valid configuration near q0 whose tool point is nearer p (q0 itself is valid).
 
@@ -629,8 +640,10 @@ def _polished(design: ArmDesign, p: np.ndarray, current):
         out_err = np.full(len(seeds) + n_cloud, np.inf)
         blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
         pi, pf, groups, _, rows, c = kernel_env(design)
+        k = min(NEAR_FIRST * n_cloud, len(cloud_q))
+        near = np.atleast_1d(_cloud_tree(design).query(target, k)[1]).astype(np.int64)
         n = polish_each(
-            seeds, cloud_q, cloud_p, n_cloud, target, design.lengths, design.lower,
+            seeds, cloud_q, cloud_p, near, n_cloud, target, design.lengths, design.lower,
             design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err, blocked,
         )  # fmt: skip
         return out_q[:n], out_err[:n], blocked[:n]
