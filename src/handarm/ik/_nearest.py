@@ -289,15 +289,17 @@ def polish_each(
         n += 1
     if n_cloud <= 0:
         return n
-    # the nearest NEAR_FIRST * n_cloud first; all of them, in order, if too few are valid
+    # the nearest NEAR_FIRST * n_cloud first; the rest of them, in order, if too few are valid
     env = (pi, pf, groups, rows, c, sc)
     out = (out_q, out_err, out_blocked)
     found = _polish_valid_of(near, cloud_q, n_cloud, target, a, lower, upper, steps, env,
                              out, n)  # fmt: skip
-    if found < n_cloud and near.shape[0] < cloud_p.shape[0]:
+    k = near.shape[0]
+    if found < n_cloud and k < cloud_p.shape[0]:
+        # the k nearest lead the sorted cloud, and were polished above
         order = np.argsort(np.sum((cloud_p - target) ** 2, axis=1), kind="mergesort")
-        found = _polish_valid_of(order, cloud_q, n_cloud, target, a, lower, upper, steps, env,
-                                 out, n)  # fmt: skip
+        found += _polish_valid_of(order[k:], cloud_q, n_cloud - found, target, a, lower, upper,
+                                  steps, env, out, n + found)  # fmt: skip
     return n + found
 
 

@@ -370,14 +370,6 @@ def free_at(q, u, a, env, coef, frames, xy, stamp, motion):
     return not hit
 
 
-@nb.njit(**INLINE)
-def _fresh(stamp, motion):
-    """The stamp, for the model itself at the placed pose: nothing moves."""
-    new_pose(stamp)
-    motion[0] = -1.0
-    return stamp
-
-
 @nb.njit(**JIT)
 def printed_scratch(n_pieces):
     """Scratch arrays of ``printed_ranges`` for one solving thread."""
@@ -473,16 +465,21 @@ def printed_ranges(
         hit, unsure = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
         if hit or (narrow and unsure):
             continue  # an invalid stretch: the open range (if any) ends before it
-        if witness and (
-            unsure == 0
-            or not groups_status(unsure, frames, _fresh(stamp, motion), xy, pi, pf, groups,
-                                 rows, coef, motion, c)[0]
-        ):  # fmt: skip
-            if n_out >= out.shape[0]:
-                return -1
-            out[n_out, 0], out[n_out, 1] = ua, ub
-            sure[n_out] = False
-            return n_out + 1
+        if witness:
+            free_middle = unsure == 0
+            if not free_middle:
+                # the model itself at the middle, for the pairs still unsure (nothing moves)
+                new_pose(stamp)
+                motion[0] = -1.0
+                hit, _ = groups_status(unsure, frames, stamp, xy, pi, pf, groups, rows, coef,
+                                       motion, c)  # fmt: skip
+                free_middle = not hit
+            if free_middle:
+                if n_out >= out.shape[0]:
+                    return -1
+                out[n_out, 0], out[n_out, 1] = ua, ub
+                sure[n_out] = False
+                return n_out + 1
         if unsure == 0:
             # a free stretch: extend the open range or start one
             joins = n_out > first and ua - out[n_out - 1, 1] <= MERGE_GAP

@@ -184,6 +184,8 @@ def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, w
     """
     if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
         psi_used[0] = math.atan2(e[1], e[0])
+        if first and not _reaches(p, e, a, work[8]):
+            return 0  # whether: answered before the call (see ``_reaches``)
         return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work, mdl, first)
     # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
     n_steps = int(math.ceil(0.5 * PI / VERTICAL_STEP))
@@ -667,8 +669,6 @@ def _has_range(p, e, psi_vertical, a, mdl, sc):
     direction is solvable costs a fraction of counting its ranges.
     """
     work, q, br, iv, used = sc
-    if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS and not _reaches(p, e, a, work[8]):
-        return 0
     return _solve_any_azimuth(p, e, psi_vertical, a, q, br, iv, used, work, mdl, True)
 
 
