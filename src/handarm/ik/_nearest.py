@@ -251,13 +251,11 @@ def slide_best(target, a, lower, upper, pi, pf, groups, rows, c, out_q, out_err,
 
 
 @nb.njit(**JIT)
-def tool_points(q, a):
-    """Tool points (n, 3) of the configurations q (n, 6) (``forward``'s, one at a time)."""
-    out = np.empty((q.shape[0], 3))
-    pose = np.empty(8)
+def tool_poses(q, a):
+    """``tool_pose`` of each configuration of q (n, 6): rows (n, 8) of point, direction, joint 4."""
+    out = np.empty((q.shape[0], 8))
     for i in range(q.shape[0]):
-        tool_pose(q[i], a, pose)
-        out[i, 0], out[i, 1], out[i, 2] = pose[0], pose[1], pose[2]
+        tool_pose(q[i], a, out[i])
     return out
 
 

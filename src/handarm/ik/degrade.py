@@ -57,7 +57,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_points
+from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_poses
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import (
     PITCH_CIRCLE,
@@ -521,12 +521,11 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     # arm); level 3 starts from their directions, and level 4 projects them onto its circles
     # (small caps of solvable directions near the reach)
     polished = _polished(design, p, current)
-    seeds = []
-    for q in _configs_reaching(polished):
-        v = _pose(design, q)[1]
-        if float(_angle(v, e)) < 1e-9:
-            return _single_point(design, q, p, e, 5, 0.0, current)
-        seeds.append(v)
+    reaching = _configs_reaching(polished)
+    seeds = list(tool_poses(reaching, design.lengths)[:, 3:6])
+    exact = np.flatnonzero(_angle(np.reshape(seeds, (-1, 3)), e) < 1e-9)
+    if len(exact):
+        return _single_point(design, reaching[exact[0]], p, e, 5, 0.0, current)
     if order == "paper":
         candidates = _circle_candidates(design, p, e, current, seeds=seeds)
         result = _choose(design, p, e, candidates, 4, current)
@@ -561,7 +560,7 @@ def _position_cloud(design: ArmDesign) -> tuple[np.ndarray, np.ndarray]:
     """
     rng = np.random.default_rng(12345)
     q = rng.uniform(design.lower, design.upper, (_CLOUD, 6))
-    return q, tool_points(q, design.lengths)
+    return q, np.ascontiguousarray(tool_poses(q, design.lengths)[:, :3])
 
 
 @functools.lru_cache(maxsize=8)
@@ -674,10 +673,10 @@ def _slid(design: ArmDesign, p: np.ndarray, polished) -> tuple[np.ndarray, np.nd
     return qs, errs
 
 
-def _configs_reaching(polished) -> list[np.ndarray]:
-    """Valid configurations whose tool point is p (to 1e-9 m), of the ``_polished`` seeds."""
+def _configs_reaching(polished) -> np.ndarray:
+    """Valid configurations (k, 6) whose tool point is p (to 1e-9 m), of the ``_polished`` seeds."""
     qs, errs, _ = polished
-    return [q for q, err in zip(qs, errs, strict=True) if err < 1e-9]
+    return np.ascontiguousarray(qs[errs < 1e-9])
 
 
 def _two_dof(design: ArmDesign, p, e, current, polished=None) -> IKResult:
