@@ -425,27 +425,38 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     candidates within ``HOLD_ANGLE`` of the closest are ties: the one whose follow
     configuration is nearest ``current`` wins, so that a target moved by sensor noise keeps
     the answer where it was instead of jumping with the searches' last digits.
+
+    Candidates are solved closest first, and only while they can still be the answer or
+    tie with it; a direction met twice (searches that ended together) is solved once.
+    Either way the answer is the one solving every candidate in turn would give.
     """
     scored = []
+    tie = 1e-9 if current is None else HOLD_ANGLE
 
-    def score(v) -> None:
+    def score(v, err) -> None:
         r = _solve_exact(design, p, v, current)
         if r.count:
-            err = float(_angle(v, e))
             motion = 0.0 if current is None else float(np.linalg.norm(r.follow - current))
             scored.append((err, motion, v, r))
 
-    for v in candidates:
-        score(v)
+    errs = [float(_angle(v, e)) for v in candidates]
+    seen = set()
+    for k in sorted(range(len(candidates)), key=errs.__getitem__):  # stable: ties keep order
+        if scored and errs[k] > scored[0][0] + tie:
+            break  # the first scored is the closest; nothing farther can win or tie
+        v = np.asarray(candidates[k])
+        if v.tobytes() in seen:
+            continue  # the same (err, motion) as its twin, which comes first and wins a tie
+        seen.add(v.tobytes())
+        score(v, errs[k])
     if not scored:
         return None
     for v in _held(design, e, current, dof):
         # the searches' candidates keep pitch or yaw by construction (for a vertical e, L's
         # azimuth stands for its yaw); a held one at level 4 must keep one of e's
         if dof == 3 or keeps(e, v) is not None:
-            score(v)
+            score(v, float(_angle(v, e)))
     best = min(s[0] for s in scored)
-    tie = 1e-9 if current is None else HOLD_ANGLE
     err, _, v, r = min((s for s in scored if s[0] <= best + tie), key=lambda s: (s[1], s[0]))
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
