@@ -181,6 +181,12 @@ def _meets(gx, gy, gz, angle, ends, e0):
     return -1
 
 
+#: A trial direction whose cosine with e0 is this much below the present one's is farther
+#: from e0 (its angle larger by at least as much, far beyond rounding): its angle is not
+#: computed (half of each ring; the angles are most of a ring's own cost).
+_FARTHER = 1e-9
+
+
 @nb.njit(**JIT)
 def pattern_search(
     p, psi, e0, good, cos_ring, sin_ring, top, step, tol, rounds, a, mdl, sc, scene, ends, out
@@ -232,8 +238,11 @@ def pattern_search(
                 cb, sb = math.sin(turn), side * math.cos(turn)  # bearing 90 deg - turn
                 ux, uy, uz = cb * wx + sb * vx, cb * wy + sb * vy, cb * wz + sb * vz
             x, y, z = cs * gx + ss * ux, cs * gy + ss * uy, cs * gz + ss * uz
+            tx[k], ty[k], tz[k] = x, y, z
+            if x * e0[0] + y * e0[1] + z * e0[2] < c0 - _FARTHER:
+                continue  # farther from e0 for sure (|cos a - cos b| <= |a - b|): no angle
             w = angle3(x, y, z, e0[0], e0[1], e0[2])
-            tx[k], ty[k], tz[k], ang[k] = x, y, z, w
+            ang[k] = w
             if w < a0:  # closer trials, by angle (stable: ties keep trial order)
                 j = n
                 while j > 0 and ang[order[j - 1]] > w:
