@@ -5,12 +5,20 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from tests.ik.conftest import random_design, valid_configurations
 
+import handarm
+from handarm import ik
 from handarm.ik import _search as K
+from handarm.ik import _solve as S
 
 unit = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)).filter(
     lambda v: 1e-3 < math.sqrt(sum(x * x for x in v))
 )
+
+
+#: The paper's arm and three random designs (unequal lengths, asymmetric limits).
+DESIGNS = [handarm.ArmDesign()] + [random_design(np.random.default_rng(s)) for s in (1, 2, 3)]
 
 
 def normal(v):
@@ -168,3 +176,60 @@ def test_searches_that_meet_cost_nothing_in_angle(paper):
             break
     assert checked == 6
     assert met > 0  # some searches did meet (else this test shows nothing)
+
+
+def _solver_reach(p, e, a):
+    """The solver's own reach test: both chains reach L for a sign of d (``_line_window``)."""
+    fr = np.empty(S.FRAMES_SIZE)
+    h = math.hypot(e[0], e[1])
+    margins = []
+    reach = False
+    for sgn in (1.0, -1.0):
+        lo, hi = S._line_window(p, e, sgn * e[0] / h, sgn * e[1] / h, a, fr)
+        reach = reach or lo < hi
+        margins += [
+            (a[1] + a[2]) ** 2 - (fr[0] ** 2 + fr[1] ** 2),
+            (a[4] + a[5]) ** 2 - (fr[3] ** 2 + fr[4] ** 2),
+        ]
+        if margins[-1] > 0 and margins[-2] > 0:
+            margins.append(hi - lo)
+    return reach, min(abs(m) for m in margins)
+
+
+@settings(max_examples=500, deadline=None)
+@given(
+    seed=st.integers(0, 3),
+    x=st.tuples(st.floats(-1.3, 1.3), st.floats(-1.3, 1.3), st.floats(-1.3, 1.3)),
+    v=unit,
+)
+def test_the_closed_form_reach_test_is_the_solvers(seed, x, v):
+    """``may_reach`` (no trigonometry) answers as the solver's ``_line_window`` does, for
+    points around the reach of the paper's arm and random designs (away from a boundary
+    by 1e-9, where rounding decides)."""
+    design = DESIGNS[seed]
+    a = design.lengths
+    p = np.asarray(x) * float(np.sum(a[1:]))
+    e = normal(v)
+    if math.hypot(e[0], e[1]) < 1e-6:
+        return
+    want, margin = _solver_reach(p, e, a)
+    if margin > 1e-9:
+        assert S.may_reach(p, *e, a) == want
+        assert S.may_reach(p, *(3.5 * e), a) == want  # any length of e
+
+
+def test_the_reach_test_never_rules_out_a_solvable_direction():
+    """Every direction ``count_solutions`` finds solvable passes ``may_reach``: the tool
+    poses of valid configurations (solvable by construction) and random directions at
+    their points, on the paper's arm and three random designs."""
+    rng = np.random.default_rng(5)
+    for design in DESIGNS:
+        q = valid_configurations(design, rng, 300)
+        P, E0 = handarm.forward(design, q)
+        E = rng.normal(size=P.shape)
+        E /= np.linalg.norm(E, axis=1, keepdims=True)
+        for dirs in (E0, E):
+            counts = ik.count_solutions(design, P, dirs)
+            passed = [S.may_reach(p, *e, design.lengths) for p, e in zip(P, dirs, strict=True)]
+            assert all(passed[i] for i in np.flatnonzero(counts > 0))
+        assert (ik.count_solutions(design, P, E0) > 0).mean() > 0.9

@@ -20,7 +20,7 @@ import numpy as np
 
 from handarm.ik._common import INLINE, JIT, wrap
 from handarm.ik._obstacles import _count_target, count_scratch
-from handarm.ik._solve import FRAMES_SIZE, _first_scratch, _has_range, may_reach
+from handarm.ik._solve import _first_scratch, _has_range, may_reach
 
 
 @nb.njit(**JIT)
@@ -81,27 +81,6 @@ def search_scratch(lower, upper, mdl, n_pieces, n_obs):
 
 
 @nb.njit(**INLINE)
-def reaches(p, ex, ey, ez, a, rs):
-    """``may_reach`` of the direction (ex, ey, ez): False rules it out, before ``solvable``.
-
-    ``rs``: its scratch, ``reach_scratch()``. Test it in the search's own loop: numba copies
-    the scratch tuples ``solvable`` takes into every call, inlined or not, and that cost
-    twice the test itself (0.33 us a direction, not 0.12), where most directions a search
-    tries (all those near level 3's reach boundaries) fail it.
-    """
-    e = rs[:3]
-    n = math.sqrt(ex * ex + ey * ey + ez * ez)
-    e[0], e[1], e[2] = ex / n, ey / n, ez / n
-    return may_reach(p, e, a, rs[3:])
-
-
-@nb.njit(**JIT)
-def reach_scratch():
-    """Scratch space of ``reaches``: a direction and ``may_reach``'s frames."""
-    return np.empty(3 + FRAMES_SIZE)
-
-
-@nb.njit(**INLINE)
 def solvable(p, ex, ey, ez, psi, a, mdl, sc, scene):
     """Whether the direction (ex, ey, ez) (normalised here) has a solution at p.
 
@@ -132,11 +111,10 @@ def to_boundary(p, psi, e0, good, tol, a, mdl, sc, scene, out):
     arc = max(angle3(e0[0], e0[1], e0[2], good[0], good[1], good[2]), tol)
     lo, hi = 0.0, 1.0  # hi: solvable
     trial = np.empty(3)
-    rs = reach_scratch()
     while abs(hi - lo) > tol / arc:
         mid = 0.5 * (lo + hi)
         slerp(e0, good, mid, trial)
-        if reaches(p, trial[0], trial[1], trial[2], a, rs) and solvable(
+        if may_reach(p, trial[0], trial[1], trial[2], a) and solvable(
             p, trial[0], trial[1], trial[2], psi, a, mdl, sc, scene
         ):
             hi = mid
@@ -207,7 +185,6 @@ def pattern_search(
     m = cos_ring.shape[0] + 2 * len(TANGENT_TURNS)
     tx, ty, tz, ang = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     order = np.empty(m, np.int64)
-    rs = reach_scratch()
     while rounds > 0:
         if step <= tol:
             break
@@ -253,7 +230,7 @@ def pattern_search(
         moved = False
         for i in range(n):
             k = order[i]
-            if reaches(p, tx[k], ty[k], tz[k], a, rs) and solvable(
+            if may_reach(p, tx[k], ty[k], tz[k], a) and solvable(
                 p, tx[k], ty[k], tz[k], psi, a, mdl, sc, scene
             ):
                 gx, gy, gz = tx[k], ty[k], tz[k]
@@ -358,11 +335,10 @@ def _circle_side(kinds, s, yaw, pitch):
 def _circle_bisect(kind, yaw, pitch, pole, th0, good, bad, tol, p, psi, a, mdl, sc, scene):
     """Bisect the offsets [bad, good] along a circle (good solvable) to ``tol``: the good end."""
     d = np.empty(3)
-    rs = reach_scratch()
     while abs(good - bad) > tol:
         mid = 0.5 * (good + bad)
         circle_direction(kind, yaw, pitch, pole, th0 + mid, d)
-        if reaches(p, d[0], d[1], d[2], a, rs) and solvable(
+        if may_reach(p, d[0], d[1], d[2], a) and solvable(
             p, d[0], d[1], d[2], psi, a, mdl, sc, scene
         ):
             good = mid
@@ -413,7 +389,6 @@ def nearest_on_circles(
     sus_k = np.empty(offsets.shape[0], np.int64)
     best = math.inf
     d = np.empty(3)
-    rs = reach_scratch()
     start = 0
     for b in range(block_ends.shape[0] + 1):
         stop = block_ends[b] if b < block_ends.shape[0] else offsets.shape[0]
@@ -429,7 +404,7 @@ def nearest_on_circles(
                 circle_direction(kind, yaw, pitch, pole, th0 + side * offsets[k], d)
                 # reach, then widened limits first: what they rule out (most directions) the
                 # limits rule out too
-                if not reaches(p, d[0], d[1], d[2], a, rs):
+                if not may_reach(p, d[0], d[1], d[2], a):
                     continue
                 if not solvable(p, d[0], d[1], d[2], psi, a, mdl, sc_r, scene):
                     continue
@@ -476,7 +451,7 @@ def nearest_on_circles(
             if prune and circle_cost(kind, x - step, cos_pitch) > best:
                 break
             circle_direction(kind, yaw, pitch, pole, th0 + side * x, d)
-            if reaches(p, d[0], d[1], d[2], a, rs) and solvable(
+            if may_reach(p, d[0], d[1], d[2], a) and solvable(
                 p, d[0], d[1], d[2], psi, a, mdl, sc, scene
             ):
                 hit_s[n_hits] = s
@@ -520,7 +495,6 @@ def circle_projections(
     cos_pitch = math.cos(pitch)
     cy, sy = math.cos(yaw), math.sin(yaw)
     d = np.empty(3)
-    rs = reach_scratch()
     n = 0
     for s in range(kinds.shape[0]):
         kind = kinds[s]
@@ -537,7 +511,7 @@ def circle_projections(
             if circle_cost(kind, max(abs(x) - fine, 0.0), cos_pitch) > best:
                 continue
             circle_direction(kind, yaw, pitch, pole, th0 + x, d)
-            if not reaches(p, d[0], d[1], d[2], a, rs):
+            if not may_reach(p, d[0], d[1], d[2], a):
                 continue
             if not solvable(p, d[0], d[1], d[2], psi, a, mdl, sc, scene):
                 continue
