@@ -125,7 +125,7 @@ def test_compiled_search_ends_where_the_plain_one_does(paper):
         e = normal(rng.normal(size=3))
         if ik.count_solutions(paper, pk[None], e[None])[0]:
             continue
-        sphere = degrade._sphere_by_angle(e)
+        sphere = degrade._sphere_by_angle(paper, pk, e)
         starts = degrade._nearest_solvable(paper, pk, sphere, 2)
         if not starts:
             continue
@@ -159,7 +159,7 @@ def test_searches_that_meet_cost_nothing_in_angle(paper):
         e = normal(rng.normal(size=3))
         if ik.count_solutions(paper, pk[None], e[None])[0]:
             continue
-        starts = degrade._nearest_solvable(paper, pk, degrade._sphere_by_angle(e), 6)
+        starts = degrade._nearest_solvable(paper, pk, degrade._sphere_by_angle(paper, pk, e), 6)
         if len(starts) < 2:
             continue
         together = degrade._refine(paper, pk, e, starts)

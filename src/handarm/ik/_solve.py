@@ -350,6 +350,13 @@ def may_reach(p, ex, ey, ez, a):
 
 
 @nb.njit(**JIT)
+def reaching_rows(p, dirs, a, out):
+    """``out[i]``: ``may_reach`` of the direction ``dirs[i]`` at p."""
+    for i in range(dirs.shape[0]):
+        out[i] = may_reach(p, dirs[i, 0], dirs[i, 1], dirs[i, 2], a)
+
+
+@nb.njit(**JIT)
 def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first):
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
     paper = mdl[0]
