@@ -291,18 +291,27 @@ def closest_direction(design, p, e0, seeds=()):
     the arc towards e0, then along the boundary by a shrinking pattern search.
     """
     sphere_starts = _nearest_solvable(design, p, _sphere_by_angle(design, p, e0), _STARTS)
+    # the solvable seeds nearest e0 that are not the same direction twice (seed
+    # configurations that reach p often share their direction's neighbourhood); they fill
+    # up to 2 x _STARTS, more of them where the sphere found few (near the reach, where caps
+    # are small). Tested for solvability nearest first, only as far as needed.
     seeds = np.asarray(seeds, float).reshape(-1, 3)
-    if len(seeds):
-        seeds = seeds[_solvable(design, p, seeds)]
-    # the seeds nearest e0 that are not the same direction twice (seed configurations that
-    # reach p often share their direction's neighbourhood); they fill up to 2 x _STARTS,
-    # more of them where the sphere found few (near the reach, where caps are small)
-    seed_starts = []
-    for v in seeds[np.argsort(_angle(seeds, e0))] if len(seeds) else ():
-        if len(seed_starts) == 2 * _STARTS - len(sphere_starts):
-            break
-        if all(float(_angle(v, w)) > _SAME_DIRECTION for w in seed_starts):
-            seed_starts.append(v)
+    seeds = seeds[np.argsort(_angle(seeds, e0), kind="stable")]
+    want = 2 * _STARTS - len(sphere_starts)
+    seed_starts: list[np.ndarray] = []
+    start = 0
+    while len(seed_starts) < want and start < len(seeds):
+        k = want - len(seed_starts)
+        hits = _first_solvable(design, p, seeds[start:], k)
+        for i in hits:
+            v = seeds[start + i]
+            if len(seed_starts) < want and all(
+                float(_angle(v, w)) > _SAME_DIRECTION for w in seed_starts
+            ):
+                seed_starts.append(v)
+        if len(hits) < k:
+            break  # no solvable seed after these
+        start += int(hits[-1]) + 1
     found = _refine(design, p, e0, sphere_starts + seed_starts)
     found.sort(key=lambda v: float(_angle(v, e0)))
     return found
