@@ -188,9 +188,18 @@ def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):
         np.testing.assert_allclose(
             errs[ok], np.linalg.norm(handarm.forward(d, qs[ok])[0] - p, axis=1), atol=1e-12
         )
-    # with no polish steps the cloud rows are the seeds themselves
+    # with no polish steps the cloud rows are the seeds themselves; among the points, some
+    # where fewer than _SEEDS of the first NEAR_FIRST * _SEEDS nearest are valid (the seeds
+    # then come from farther)
     monkeypatch.setattr(degrade, "_POLISH_STEPS", 0)
-    for p in rng.uniform(-0.3, 0.3, (12, 3)):
+    first = degrade.NEAR_FIRST * degrade._SEEDS
+    sparse = [
+        p
+        for p in cloud_p[~valid][:400]
+        if valid[np.argsort(np.linalg.norm(cloud_p - p, axis=1))[:first]].sum() < degrade._SEEDS
+    ]
+    assert len(sparse) >= 4
+    for p in [*rng.uniform(-0.3, 0.3, (12, 3)), *sparse[:4]]:
         qs, _, _ = degrade._polished(d, p, None)
         n_start = len(degrade._start_seeds(d, p, None))
         order = np.argsort(np.linalg.norm(cloud_p[valid] - p, axis=1), kind="stable")

@@ -57,7 +57,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
-from handarm.ik._nearest import NEAR_FIRST, polish_each, slide_best, tool_poses
+from handarm.ik._nearest import NEAR_FIRST, NEAR_MORE, polish_each, slide_best, tool_poses
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import (
     PITCH_CIRCLE,
@@ -667,18 +667,26 @@ def _polished(design: ArmDesign, p: np.ndarray, current):
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
         seeds = np.ascontiguousarray(_start_seeds(design, p, current), dtype=float)
-        cloud_q, cloud_p = _position_cloud(design)
+        cloud_q = _position_cloud(design)[0]
         n_cloud = min(_SEEDS, len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
         blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
         pi, pf, groups, _, rows, c = kernel_env(design)
+        env = (target, design.lengths, design.lower, design.upper, _POLISH_STEPS, pi, pf,
+               groups, rows, c)  # fmt: skip
+        tree = _cloud_tree(design)
         k = min(NEAR_FIRST * n_cloud, len(cloud_q))
-        near = np.atleast_1d(_cloud_tree(design).query(target, k)[1]).astype(np.int64)
-        n = polish_each(
-            seeds, cloud_q, cloud_p, near, n_cloud, target, design.lengths, design.lower,
-            design.upper, _POLISH_STEPS, pi, pf, groups, rows, c, out_q, out_err, blocked,
-        )  # fmt: skip
+        near = np.atleast_1d(tree.query(target, k)[1]).astype(np.int64)
+        n = polish_each(seeds, cloud_q, near, n_cloud, *env, out_q, out_err, blocked)
+        while n < len(seeds) + n_cloud and k < len(cloud_q):
+            # too few of those valid: the next nearest, NEAR_MORE times as many
+            tested, k = k, min(NEAR_MORE * k, len(cloud_q))
+            near = np.atleast_1d(tree.query(target, k)[1]).astype(np.int64)[tested:]
+            n += polish_each(
+                seeds[:0], cloud_q, near, len(seeds) + n_cloud - n, *env, out_q[n:],
+                out_err[n:], blocked[n:],
+            )  # fmt: skip
         return out_q[:n], out_err[:n], blocked[:n]
     qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
