@@ -299,19 +299,11 @@ def closest_direction(design, p, e0, seeds=()):
     seeds = seeds[np.argsort(_angle(seeds, e0), kind="stable")]
     want = 2 * _STARTS - len(sphere_starts)
     seed_starts: list[np.ndarray] = []
-    start = 0
-    while len(seed_starts) < want and start < len(seeds):
-        k = want - len(seed_starts)
-        hits = _first_solvable(design, p, seeds[start:], k)
-        for i in hits:
-            v = seeds[start + i]
-            if len(seed_starts) < want and all(
-                float(_angle(v, w)) > _SAME_DIRECTION for w in seed_starts
-            ):
-                seed_starts.append(v)
-        if len(hits) < k:
-            break  # no solvable seed after these
-        start += int(hits[-1]) + 1
+    for i in _solvable_in_order(design, p, seeds, lambda: want - len(seed_starts)):
+        if all(float(_angle(seeds[i], w)) > _SAME_DIRECTION for w in seed_starts):
+            seed_starts.append(seeds[i])
+            if len(seed_starts) == want:
+                break
     found = _refine(design, p, e0, sphere_starts + seed_starts)
     found.sort(key=lambda v: float(_angle(v, e0)))
     return found
@@ -331,24 +323,39 @@ def _sphere_by_angle(design: ArmDesign, p: np.ndarray, e0: np.ndarray) -> np.nda
     return sphere[np.argsort(_angle(sphere, e0), kind="stable")]
 
 
-def _nearest_solvable(design, p, dirs, k: int, block: int = 64) -> list[np.ndarray]:
+def _solvable_in_order(design, p, dirs, wanted, block: int = 64):
+    """Indices of the solvable of ``dirs`` at p, in their order, tested only as far as needed.
+
+    ``wanted()``: how many more the caller may take, asked before each batch of tests.
+    Without a scene one compiled call tests up to the first ``wanted()`` solvable; in a
+    scene (whose counts test every direction they are given) ``block`` at a time.
+    """
+    start = 0
+    while start < len(dirs):
+        if _SCENE.get() is None:
+            k = max(int(wanted()), 1)
+            hits = _first_solvable(design, p, dirs[start:], k)
+            yield from (start + int(i) for i in hits)
+            if len(hits) < k:
+                return  # none solvable after these
+            start += int(hits[-1]) + 1
+        else:
+            solvable = _solvable(design, p, dirs[start : start + block])
+            yield from (start + int(i) for i in np.flatnonzero(solvable))
+            start += block
+
+
+def _nearest_solvable(design, p, dirs, k: int) -> list[np.ndarray]:
     """The first k solvable of ``dirs`` (in their order).
 
-    Tested in order, stopping at the k-th: the directions beyond it (most of a 2,000-point
-    sphere when e0 is near a solvable region) are never tested. Without a scene one
-    compiled call does it; in a scene a block of ``block`` at a time.
+    Tested in order, stopping at the k-th (``_solvable_in_order``): the directions beyond
+    it (most of a 2,000-point sphere when e0 is near a solvable region) are never tested.
     """
-    if _SCENE.get() is None:
-        return list(dirs[_first_solvable(design, p, dirs, k)])
     out: list[np.ndarray] = []
-    start = 0
-    while len(out) < k and start < len(dirs):
-        found = _first_solvable(design, p, dirs[start : start + block])
-        if not len(found):
-            start += block
-            continue
-        out.append(dirs[start + found[0]])
-        start += found[0] + 1
+    for i in _solvable_in_order(design, p, dirs, lambda: k - len(out)):
+        out.append(dirs[i])
+        if len(out) == k:
+            break
     return out
 
 
