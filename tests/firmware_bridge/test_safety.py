@@ -459,6 +459,8 @@ def test_cli_follow_from_stdin_ends_at_the_last_target(design, tmp_path, capsys,
         _, err_bad = capsys.readouterr()
     assert code == 0, err
     assert out.startswith("followed ") and "Hz achieved" in out
+    # the start pose is far from the first target: the approach was slowed, and said so
+    assert "periods slowed to 0.25 of the speed limit" in out
     assert handarm.is_valid(design, poses).all()
     p_goal, _ = handarm.forward(design, np.radians(GOAL_DEG))
     assert np.linalg.norm(handarm.forward(design, poses[-1])[0] - p_goal) < 2e-3
@@ -530,3 +532,46 @@ def test_ctrl_c_during_follow_holds_the_pose(design):
         for servo in emu.servos.values():
             assert servo.get("goal_position") == servo.get("present_position")
             assert servo.get("torque_enable") == 1
+
+
+def test_follow_steps_slowly_where_the_answer_jumps_to_another_family(design):
+    """A target whose answer jumps to another family (``family_ended``: here one far from
+    the present pose, beyond a small motion) is approached at JUMP_SPEED of the velocity
+    limit; a target the present family reaches with a small motion at the full limit."""
+    from handarm.firmware_bridge.follow import JUMP_SPEED, follow_step
+    from handarm.firmware_bridge.motion import MotionLimits
+
+    limits, dt = MotionLimits(design), 0.01
+    allowed = limits.velocity * dt  # motor rad in one period
+    q = np.radians(GOAL_DEG)
+    far = handarm.forward(design, np.radians(ELSEWHERE_DEG))
+    assert ik.solve(design, *far, current=q).family_ended
+    q_next, dof, blocked, jumped = follow_step(design, q, far, dt, limits)
+    assert jumped and dof == 5 and blocked == ()
+    motor = np.abs(motor_from_joint(design, q_next - q)).max()
+    assert motor == pytest.approx(JUMP_SPEED * allowed, rel=1e-9)
+    near = handarm.forward(design, q + np.radians([8.0, 0, 0, 0, 0, 0]))
+    assert not ik.solve(design, *near, current=q).family_ended
+    q_next, dof, _, jumped = follow_step(design, q, near, dt, limits)
+    assert not jumped and dof == 5
+    assert np.abs(motor_from_joint(design, q_next - q)).max() == pytest.approx(allowed, rel=1e-9)
+
+
+def test_follow_loop_counts_its_slowed_periods(design):
+    """The loop's summary counts the periods it slowed, and every command of them moved at
+    most JUMP_SPEED of a period's motion (the streamed goals, decoded independently)."""
+    from handarm.firmware_bridge.follow import JUMP_SPEED, TargetSource, follow
+    from handarm.firmware_bridge.motion import MotionLimits
+
+    lines = [_target_line(design, ELSEWHERE_DEG)]
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        before = len(emu.log)
+        stats = follow(bus, design, cal, TargetSource(lines), rate=100.0, max_periods=40)
+        poses = streamed_poses(emu, design, cal, before)
+    # 40 periods from the start pose: the target stays far, every one of them slowed
+    assert stats["slowed_periods"] == stats["periods"] == 40
+    steps = np.abs(motor_from_joint(design, np.diff(poses, axis=0))).max(axis=1)
+    tick = 2 * np.pi / 4096
+    assert steps.max() <= JUMP_SPEED * MotionLimits(design).velocity / 100.0 + 2 * tick
+    assert steps.max() > 0.5 * JUMP_SPEED * MotionLimits(design).velocity / 100.0  # it moves

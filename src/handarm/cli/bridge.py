@@ -274,7 +274,7 @@ def cmd_setup(args: argparse.Namespace) -> int:
 
 def cmd_follow(args: argparse.Namespace) -> int:
     """Keep the tool on a stream of targets while the handle moves (JSON lines)."""
-    from handarm.firmware_bridge.follow import follow, open_source
+    from handarm.firmware_bridge.follow import JUMP_SPEED, follow, open_source
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
@@ -299,6 +299,11 @@ def cmd_follow(args: argparse.Namespace) -> int:
         f"followed {stats['targets']} targets in {stats['periods']} periods "
         f"({stats['rate']:.1f} Hz achieved)"
     )
+    if stats["slowed_periods"]:
+        print(
+            f"{stats['slowed_periods']} periods slowed to {JUMP_SPEED:g} of the speed limit: "
+            "the answer jumped to another family of configurations"
+        )
     if stats["blocked_by"]:
         print(f"held before targets blocked by: {', '.join(stats['blocked_by'])}")
     return 0

@@ -51,7 +51,13 @@ from handarm.firmware_bridge.motion import (
     serial_checks,
 )
 
-__all__ = ["parse_target", "TargetSource", "open_source", "follow_step", "follow"]
+__all__ = ["parse_target", "TargetSource", "open_source", "follow_step", "follow", "JUMP_SPEED"]
+
+#: While the IK flags its answer ``family_ended`` (``follow`` jumped to another family of
+#: configurations: the one the arm was on ended, or the target lies beyond a small motion
+#: from the present pose), the loop steps at this fraction of the velocity limit, so that a
+#: swing the person holding the arm did not ask for comes slowly.
+JUMP_SPEED = 0.25
 
 
 def _vector(obj, key: str, where: str) -> np.ndarray:
@@ -193,12 +199,15 @@ def follow_step(
     Returns
     -------
     q_next : ndarray, shape (6,)
-        At most one period's motion at ``limits`` away from ``q_cmd``, on a valid straight
-        line; ``q_cmd`` itself when no such step exists.
+        At most one period's motion at ``limits`` away from ``q_cmd`` (``JUMP_SPEED`` of it
+        when the answer jumped to another family), on a valid straight line; ``q_cmd``
+        itself when no such step exists.
     reached_dof : int
         The degrees of freedom the IK answer achieves (0 when it gives no configuration).
     blocked_by : tuple of str
         With a scene: the obstacles that block every exact solution (the arm then holds).
+    jumped : bool
+        The IK answer's ``family_ended``: this step was slowed to ``JUMP_SPEED``.
     """
     from handarm.ik import solve
 
@@ -210,20 +219,24 @@ def follow_step(
         # answer the arm would not take; only an unreachable one is solved again, degraded
         result = solve(design, p, e, degrade=False, **kw)
         if result.blocked_by:
-            return q_cmd, 0, result.blocked_by
+            return q_cmd, 0, result.blocked_by, False
         if result.count == 0:
             result = solve(design, p, e, **kw)
     else:
         result = solve(design, p, e, current=q_cmd)
     goal = getattr(result, "follow", None)
     if goal is None:
-        return q_cmd, 0, ()
-    q_next = check_step(design, q_cmd, np.asarray(goal, float), dt, limits)
+        return q_cmd, 0, (), False
+    jumped = bool(result.family_ended)
+    # a jump to another family moves at JUMP_SPEED: one period's motion at a lower speed
+    q_next = check_step(
+        design, q_cmd, np.asarray(goal, float), dt * (JUMP_SPEED if jumped else 1.0), limits
+    )
     for _ in range(4):
         if segment_valid(design, q_cmd, q_next, scene, clearance):
-            return q_next, int(result.reached_dof), ()
+            return q_next, int(result.reached_dof), (), jumped
         q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
-    return q_cmd, int(result.reached_dof), ()
+    return q_cmd, int(result.reached_dof), (), jumped
 
 
 def _warm_up(design: ArmDesign, q, dt: float, limits: MotionLimits, scene, clearance) -> float:
@@ -276,8 +289,9 @@ def follow(
         or the loop's start for a target that arrived before it, to its command on the bus:
         median, 95th percentile, max), ``period_ms`` (same),
         ``q`` (last command, rad), ``blocked_by`` (obstacles that blocked every exact
-        solution of some target, which the arm held before) and ``warm_up_s`` (the
-        kernels' warm-up before torque on, s).
+        solution of some target, which the arm held before), ``slowed_periods`` (periods
+        whose IK answer jumped to another family, stepped at ``JUMP_SPEED``) and
+        ``warm_up_s`` (the kernels' warm-up before torque on, s).
     """
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
@@ -295,7 +309,7 @@ def follow(
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
-    target, latencies, periods, n_targets = None, [], [], 0
+    target, latencies, periods, n_targets, n_jumps = None, [], [], 0, 0
     i = 0
     t0 = last = time.perf_counter()
     try:
@@ -312,8 +326,9 @@ def follow(
                 n_targets += 1
             if target is not None:
                 step = follow_step(design, q_cmd, target, dt, limits, scene, clearance)
-                q_next, _, blocked = step
+                q_next, _, blocked, jumped = step
                 blockers.update(blocked)
+                n_jumps += jumped
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:
                     latencies.append(time.perf_counter() - arrival)
@@ -355,5 +370,6 @@ def follow(
         "period_ms": stats(periods),
         "q": q_cmd,
         "blocked_by": sorted(blockers),
+        "slowed_periods": n_jumps,
         "warm_up_s": warm_up_s,
     }
