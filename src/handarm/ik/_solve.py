@@ -600,6 +600,22 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
     return best, _distance2(out[1], current), end_lo, end_hi
 
 
+@nb.njit(**JIT)
+def nearest_in_ranges(p, e, dxs, dys, branches, intervals, a, current, samples, refine, out, dists):
+    """``nearest_along_u`` of every range of a target, in one call (not one per range).
+
+    Row i: line direction (dxs[i], dys[i]), branch signs ``branches[i]``, range
+    ``intervals[i]``; its candidates go to rows 4i..4i+3 of ``out`` and their squared
+    distances from ``current`` to ``dists``.
+    """
+    for i in range(dxs.shape[0]):
+        d0, d1, d2, d3 = nearest_along_u(
+            p, e, dxs[i], dys[i], intervals[i, 0], intervals[i, 1], float(branches[i, 1]),
+            float(branches[i, 2]), a, current, samples, refine, out[4 * i : 4 * i + 4],
+        )  # fmt: skip
+        dists[4 * i], dists[4 * i + 1], dists[4 * i + 2], dists[4 * i + 3] = d0, d1, d2, d3
+
+
 #: Targets per parallel task of ``count_many``.
 COUNT_BLOCK = 256
 _COUNT_CAP = 1  # the counts keep no solution rows; the count is exact regardless

@@ -20,7 +20,7 @@ from handarm.collision import kernel_coefficients, kernel_env, kernel_far, kerne
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
 from handarm.ik._common import VERTICAL_EPS, wrap
-from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult, nearest_solution
+from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult
 from handarm.kinematics import forward, is_valid, joint_positions
 
 __all__ = [
@@ -252,19 +252,18 @@ def follow_configuration(
     its limit, where a range that ``current`` rode to its end stops) are candidates too.
     Only configurations passing ``is_valid`` are returned.
     """
-    best = solutions[nearest_solution(solutions, current)]
-    best_dist = float(np.sum((best - current) ** 2))
-    a = design.lengths
     current = np.ascontiguousarray(current, dtype=float)
+    # nearest_solution's arithmetic, current being checked already
+    best = solutions[int(np.argmin(np.sum((solutions - current) ** 2, axis=-1)))]
+    best_dist = float(np.sum((best - current) ** 2))
     n = len(branches)
     candidates = np.empty((4 * n, 6))
     dists = np.empty(4 * n)
-    for i, (br, (lo, hi)) in enumerate(zip(branches, intervals, strict=True)):
-        dx, dy = _line_direction(p, e, br[0], azimuth)
-        dists[4 * i : 4 * i + 4] = K.nearest_along_u(
-            p, e, dx, dy, lo, hi, float(br[1]), float(br[2]), a, current,
-            _FOLLOW_SAMPLES, _FOLLOW_REFINE, candidates[4 * i : 4 * i + 4],
-        )  # fmt: skip
+    dxs, dys = _line_directions(p, e, branches[:, 0], azimuth)
+    K.nearest_in_ranges(
+        p, e, dxs, dys, branches, np.ascontiguousarray(intervals, dtype=float), design.lengths,
+        current, _FOLLOW_SAMPLES, _FOLLOW_REFINE, candidates, dists,
+    )  # fmt: skip
     # the midpoint is valid: only nearer candidates are checked, all in one batched call
     near = np.flatnonzero(dists < best_dist)
     if len(near):
@@ -647,6 +646,16 @@ def _check_branch(branch) -> np.ndarray:
     if br.shape != (3,) or not np.all(np.isin(br, (-1, 1))):
         raise ValueError(f"branch: expected three signs +1/-1, got {branch!r}")
     return br
+
+
+def _line_directions(p, e, signs, azimuth) -> tuple[np.ndarray, np.ndarray]:
+    """``_line_direction`` for each of the branch signs ``signs`` (the same arithmetic)."""
+    signs = np.asarray(signs, dtype=float)
+    h = math.hypot(e[0], e[1])
+    if h >= VERTICAL_EPS:
+        return signs * float(e[0]) / h, signs * float(e[1]) / h
+    psi = _default_vertical_azimuth(p) if azimuth is None else float(azimuth)
+    return signs * math.cos(psi), signs * math.sin(psi)
 
 
 def _line_direction(p, e, sign, azimuth) -> tuple[float, float]:
