@@ -188,6 +188,11 @@ def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):
         np.testing.assert_allclose(
             errs[ok], np.linalg.norm(handarm.forward(d, qs[ok])[0] - p, axis=1), atol=1e-12
         )
+    # the validity the polish remembers of the cloud points it tested is is_valid's
+    known = degrade._cloud_validity(d)
+    tested = np.flatnonzero(known >= 0)
+    assert len(tested) >= degrade._SEEDS
+    np.testing.assert_array_equal(known[tested] == 1, valid[tested])
     # with no polish steps the cloud rows are the seeds themselves; among the points, some
     # where fewer than _SEEDS of the first NEAR_FIRST * _SEEDS nearest are valid (the seeds
     # then come from farther)

@@ -263,18 +263,21 @@ def tool_poses(q, a):
 
 @nb.njit(**JIT)
 def polish_each(
-    seeds, cloud_q, near, n_cloud, target, a, lower, upper, steps, pi, pf, groups, rows, c,
-    out_q, out_err, out_blocked,
+    seeds, cloud_q, known, near, n_cloud, target, a, lower, upper, steps, pi, pf, groups, rows,
+    c, out_q, out_err, out_blocked,
 ):  # fmt: skip
     """Every seed polished towards target: the seeds, then valid cloud configurations.
 
     ``seeds`` (m, 6): starting configurations, each used if valid; then the first
     ``n_cloud`` valid configurations of ``cloud_q[near]`` (within the limits, tested here in
     that order, so the cloud needs no validity test of its own; the caller passes the
-    indices of those nearest target, nearest first). Row i of ``out_q`` / ``out_err`` /
-    ``out_blocked`` gets the polished configuration, its distance from target (inf for an
-    invalid seed) and whether a collision cut its polish short. Returns the number of rows
-    filled (m + at most n_cloud): fewer than that, and the caller passes the next nearest.
+    indices of those nearest target, nearest first). ``known`` (int8, one per cloud row):
+    the cloud's validity as far as tested, -1 where not yet; filled in here, so that the
+    next target near this one (a control loop) tests none of them again. Row i of
+    ``out_q`` / ``out_err`` / ``out_blocked`` gets the polished configuration, its distance
+    from target (inf for an invalid seed) and whether a collision cut its polish short.
+    Returns the number of rows filled (m + at most n_cloud): fewer than that, and the
+    caller passes the next nearest.
     """
     sc = scratch(pi.shape[0])
     n = 0
@@ -290,7 +293,9 @@ def polish_each(
     for i in near:
         if found == n_cloud:
             break
-        if not valid_one(cloud_q[i], a, lower, upper, pi, pf, groups, rows, c, sc):
+        if known[i] < 0:
+            known[i] = valid_one(cloud_q[i], a, lower, upper, pi, pf, groups, rows, c, sc)
+        if known[i] == 0:
             continue
         out_err[n + found], out_blocked[n + found] = polish_valid(
             cloud_q[i], target, a, lower, upper, steps, pi, pf, groups, rows, c, sc,
