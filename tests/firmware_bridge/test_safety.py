@@ -460,7 +460,7 @@ def test_cli_follow_from_stdin_ends_at_the_last_target(design, tmp_path, capsys,
     assert code == 0, err
     assert out.startswith("followed ") and "Hz achieved" in out
     # the start pose is far from the first target: the approach was slowed, and said so
-    assert "periods slowed to 0.25 of the speed limit" in out
+    assert "periods ran below the speed limit (from 0.25 of it, back up over 0.75 s)" in out
     assert handarm.is_valid(design, poses).all()
     p_goal, _ = handarm.forward(design, np.radians(GOAL_DEG))
     assert np.linalg.norm(handarm.forward(design, poses[-1])[0] - p_goal) < 2e-3
@@ -535,9 +535,11 @@ def test_ctrl_c_during_follow_holds_the_pose(design):
 
 
 def test_follow_steps_slowly_where_the_answer_jumps_to_another_family(design):
-    """A target whose answer jumps to another family (``family_ended``: here one far from
-    the present pose, beyond a small motion) is approached at JUMP_SPEED of the velocity
-    limit; a target the present family reaches with a small motion at the full limit."""
+    """A new swing (an answer flagged ``family_ended`` whose goal jumped since the previous
+    period's; here a target far from the present pose, with no previous goal) steps at
+    JUMP_SPEED of the velocity limit. The same answer with its goal unchanged since the last
+    period (a command lagging behind a goal) is no new swing: it steps at the speed given.
+    A target the present family reaches with a small motion is not flagged at all."""
     from handarm.firmware_bridge.follow import JUMP_SPEED, follow_step
     from handarm.firmware_bridge.motion import MotionLimits
 
@@ -546,21 +548,60 @@ def test_follow_steps_slowly_where_the_answer_jumps_to_another_family(design):
     q = np.radians(GOAL_DEG)
     far = handarm.forward(design, np.radians(ELSEWHERE_DEG))
     assert ik.solve(design, *far, current=q).family_ended
-    q_next, dof, blocked, jumped = follow_step(design, q, far, dt, limits)
-    assert jumped and dof == 5 and blocked == ()
-    motor = np.abs(motor_from_joint(design, q_next - q)).max()
+    step = follow_step(design, q, far, dt, limits)
+    assert step.swing and step.slowed and step.reached_dof == 5 and step.blocked_by == ()
+    motor = np.abs(motor_from_joint(design, step.q - q)).max()
     assert motor == pytest.approx(JUMP_SPEED * allowed, rel=1e-9)
+    again = follow_step(design, q, far, dt, limits, previous_goal=step.goal)
+    assert not again.swing and not again.slowed  # still flagged, but no new swing
+    motor = np.abs(motor_from_joint(design, again.q - q)).max()
+    assert motor == pytest.approx(allowed, rel=1e-9)
+    half = follow_step(design, q, far, dt, limits, speed=0.5, previous_goal=step.goal)
+    motor = np.abs(motor_from_joint(design, half.q - q)).max()
+    assert half.slowed and motor == pytest.approx(0.5 * allowed, rel=1e-9)
     near = handarm.forward(design, q + np.radians([8.0, 0, 0, 0, 0, 0]))
     assert not ik.solve(design, *near, current=q).family_ended
-    q_next, dof, _, jumped = follow_step(design, q, near, dt, limits)
-    assert not jumped and dof == 5
-    assert np.abs(motor_from_joint(design, q_next - q)).max() == pytest.approx(allowed, rel=1e-9)
+    step = follow_step(design, q, near, dt, limits)
+    assert not step.swing and not step.slowed and step.reached_dof == 5
+    assert np.abs(motor_from_joint(design, step.q - q)).max() == pytest.approx(allowed, rel=1e-9)
+
+
+def test_a_lagging_follower_catches_up_after_a_dropout(design):
+    """A target moving along a reachable path at 0.6 of the speed limit, its stream frozen
+    for 30 periods (a dropout) then resuming at its newest position: the resumed goal is a
+    swing, the speed drops to JUMP_SPEED and ramps back up (never faster than JUMP_RAMP
+    allows), and the arm catches up. (When every period re-decided the slowdown from the
+    lagging command's flag, it stayed slowed: 232 mm behind when the target stopped and
+    248 periods late, where the full speed arrives 0 late.)"""
+    from handarm.firmware_bridge.follow import JUMP_RAMP, JUMP_SPEED, Follower
+    from handarm.firmware_bridge.motion import MotionLimits
+
+    limits, dt = MotionLimits(design), 0.01
+    qa = np.radians([94.743, -99.304, 125.377, 30.923, 32.065, 141.168])
+    qb = np.radians([-77.256, 107.593, -100.776, -50.811, -2.146, 104.838])
+    per = np.abs(motor_from_joint(design, qb - qa)).max() / (0.6 * limits.velocity * dt)
+    n, drop = int(np.ceil(per)), 30
+    follower, q, speeds, swings = Follower(design, dt, limits), qa.copy(), [1.0], 0
+    for i in range(n + 200):
+        k = n // 3 if n // 3 <= i < n // 3 + drop else i
+        p, e = handarm.forward(design, qa + (qb - qa) * min(1.0, k / per))
+        step = follower.step(q, (p, e))
+        q, swings = step.q, swings + step.swing
+        speeds.append(follower.speed)
+        if k >= per and np.linalg.norm(handarm.forward(design, q)[0] - p) < 2e-3:
+            break
+    assert swings >= 1 and min(speeds) <= JUMP_SPEED + 0.01
+    assert i <= n + 30  # arrived within 30 periods of the target's stop
+    rises = np.diff(speeds)
+    assert rises.max() <= (1.0 - JUMP_SPEED) * dt / JUMP_RAMP + 1e-12
+    assert speeds[-1] == 1.0
 
 
 def test_follow_loop_counts_its_slowed_periods(design):
-    """The loop's summary counts the periods it slowed, and every command of them moved at
-    most JUMP_SPEED of a period's motion (the streamed goals, decoded independently)."""
-    from handarm.firmware_bridge.follow import JUMP_SPEED, TargetSource, follow
+    """The loop's summary counts the periods the swing speed shortened, and its commands
+    (the streamed goals, decoded independently) start at JUMP_SPEED of a period's motion and
+    speed up by at most JUMP_RAMP's rate a period."""
+    from handarm.firmware_bridge.follow import JUMP_RAMP, JUMP_SPEED, TargetSource, follow
     from handarm.firmware_bridge.motion import MotionLimits
 
     lines = [_target_line(design, ELSEWHERE_DEG)]
@@ -569,9 +610,11 @@ def test_follow_loop_counts_its_slowed_periods(design):
         before = len(emu.log)
         stats = follow(bus, design, cal, TargetSource(lines), rate=100.0, max_periods=40)
         poses = streamed_poses(emu, design, cal, before)
-    # 40 periods from the start pose: the target stays far, every one of them slowed
+    # 40 periods from the start pose: the target stays far, every step shortened
     assert stats["slowed_periods"] == stats["periods"] == 40
     steps = np.abs(motor_from_joint(design, np.diff(poses, axis=0))).max(axis=1)
-    tick = 2 * np.pi / 4096
-    assert steps.max() <= JUMP_SPEED * MotionLimits(design).velocity / 100.0 + 2 * tick
-    assert steps.max() > 0.5 * JUMP_SPEED * MotionLimits(design).velocity / 100.0  # it moves
+    tick, period = 2 * np.pi / 4096, MotionLimits(design).velocity / 100.0
+    fraction = JUMP_SPEED + (1.0 - JUMP_SPEED) * 0.01 / JUMP_RAMP * np.arange(len(steps))
+    assert np.all(steps <= fraction * period + 2 * tick)
+    assert steps[0] <= JUMP_SPEED * period + 2 * tick
+    assert steps[-1] > 1.5 * JUMP_SPEED * period  # it speeds up

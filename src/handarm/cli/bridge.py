@@ -274,7 +274,7 @@ def cmd_setup(args: argparse.Namespace) -> int:
 
 def cmd_follow(args: argparse.Namespace) -> int:
     """Keep the tool on a stream of targets while the handle moves (JSON lines)."""
-    from handarm.firmware_bridge.follow import JUMP_SPEED, follow, open_source
+    from handarm.firmware_bridge.follow import JUMP_RAMP, JUMP_SPEED, follow, open_source
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
@@ -301,8 +301,9 @@ def cmd_follow(args: argparse.Namespace) -> int:
     )
     if stats["slowed_periods"]:
         print(
-            f"{stats['slowed_periods']} periods slowed to {JUMP_SPEED:g} of the speed limit: "
-            "the answer jumped to another family of configurations"
+            f"{stats['slowed_periods']} periods ran below the speed limit (from {JUMP_SPEED:g} of "
+            f"it, back up over {JUMP_RAMP:g} s): the answer swung to another family of "
+            "configurations (a far target, or the family the arm was on ended)"
         )
     if stats["blocked_by"]:
         print(f"held before targets blocked by: {', '.join(stats['blocked_by'])}")

@@ -27,6 +27,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -51,13 +52,18 @@ from handarm.firmware_bridge.motion import (
     serial_checks,
 )
 
-__all__ = ["parse_target", "TargetSource", "open_source", "follow_step", "follow", "JUMP_SPEED"]
+__all__ = [
+    "parse_target", "TargetSource", "open_source", "follow_step", "Follower", "FollowStep",
+    "follow", "JUMP_SPEED", "JUMP_RAMP",
+]  # fmt: skip
 
-#: While the IK flags its answer ``family_ended`` (``follow`` jumped to another family of
-#: configurations: the one the arm was on ended, or the target lies beyond a small motion
-#: from the present pose), the loop steps at this fraction of the velocity limit, so that a
-#: swing the person holding the arm did not ask for comes slowly.
+#: A swing (the IK's answer jumped to another family of configurations, ``family_ended``:
+#: the one the arm was on ended, or the target lies beyond a small motion from the present
+#: pose) starts at this fraction of the velocity limit ...
 JUMP_SPEED = 0.25
+#: ... and the speed comes back up to the full limit over this time (s), so that a swing
+#: the person holding the arm did not ask for starts slowly and nothing jumps in speed.
+JUMP_RAMP = 0.75
 
 
 def _vector(obj, key: str, where: str) -> np.ndarray:
@@ -180,6 +186,26 @@ def open_source(spec: str) -> TargetSource:
     return TargetSource(path.read_text().splitlines(), paced=True)
 
 
+class FollowStep(NamedTuple):
+    """One period of the follow loop (``follow_step``)."""
+
+    #: The next command (rad), at most one period's motion from the present one, on a
+    #: valid straight line; the present command itself when no such step exists.
+    q: np.ndarray
+    #: The degrees of freedom the IK answer achieves (0 when it gives no configuration).
+    reached_dof: int
+    #: With a scene: the obstacles that block every exact solution (the arm then holds).
+    blocked_by: tuple[str, ...]
+    #: The IK answer's ``follow`` configuration the step heads for (None: no answer).
+    goal: np.ndarray | None
+    #: A new swing: the answer jumped to another family (``family_ended``) and its goal
+    #: jumped since the previous period's (by more than ``ANSWER_JUMP``), so the step ran
+    #: at ``JUMP_SPEED``.
+    swing: bool
+    #: The speed fraction bound the step: the full limit would have moved farther.
+    slowed: bool
+
+
 def follow_step(
     design: ArmDesign,
     q_cmd,
@@ -188,7 +214,10 @@ def follow_step(
     limits: MotionLimits,
     scene=None,
     clearance: float = 0.0,
-) -> tuple[np.ndarray, int, tuple[str, ...]]:
+    *,
+    speed: float = 1.0,
+    previous_goal=None,
+) -> FollowStep:
     """The next command from ``q_cmd`` towards the IK answer for ``target`` = (p, e).
 
     With a ``scene`` the answer is solved keeping ``clearance + scene_margin`` from the
@@ -196,20 +225,14 @@ def follow_step(
     meets an obstacle is refused: the arm holds, and the obstacles are returned (a target
     out of reach in free space still degrades, in the scene, as without one).
 
-    Returns
-    -------
-    q_next : ndarray, shape (6,)
-        At most one period's motion at ``limits`` away from ``q_cmd`` (``JUMP_SPEED`` of it
-        when the answer jumped to another family), on a valid straight line; ``q_cmd``
-        itself when no such step exists.
-    reached_dof : int
-        The degrees of freedom the IK answer achieves (0 when it gives no configuration).
-    blocked_by : tuple of str
-        With a scene: the obstacles that block every exact solution (the arm then holds).
-    jumped : bool
-        The IK answer's ``family_ended``: this step was slowed to ``JUMP_SPEED``.
+    The step moves at ``speed`` (a fraction of the velocity limit), or at ``JUMP_SPEED``
+    when the answer is a new swing: flagged ``family_ended`` and its goal more than
+    ``ANSWER_JUMP`` from ``previous_goal`` (the last period's goal; None: there was none).
+    An answer flagged only because the command lags behind a goal that moves smoothly is
+    not a new swing. ``Follower`` keeps both between periods.
     """
     from handarm.ik import solve
+    from handarm.ik.api import ANSWER_JUMP
 
     p, e = target
     if scene:
@@ -219,24 +242,58 @@ def follow_step(
         # answer the arm would not take; only an unreachable one is solved again, degraded
         result = solve(design, p, e, degrade=False, **kw)
         if result.blocked_by:
-            return q_cmd, 0, result.blocked_by, False
+            return FollowStep(q_cmd, 0, result.blocked_by, None, False, False)
         if result.count == 0:
             result = solve(design, p, e, **kw)
     else:
         result = solve(design, p, e, current=q_cmd)
     goal = getattr(result, "follow", None)
     if goal is None:
-        return q_cmd, 0, (), False
-    jumped = bool(result.family_ended)
-    # a jump to another family moves at JUMP_SPEED: one period's motion at a lower speed
-    q_next = check_step(
-        design, q_cmd, np.asarray(goal, float), dt * (JUMP_SPEED if jumped else 1.0), limits
+        return FollowStep(q_cmd, 0, (), None, False, False)
+    goal = np.asarray(goal, float)
+    swing = bool(result.family_ended) and (
+        previous_goal is None or float(np.linalg.norm(goal - previous_goal)) > ANSWER_JUMP
     )
+    fraction = JUMP_SPEED if swing else speed
+    q_full = check_step(design, q_cmd, goal, dt, limits)
+    q_next = check_step(design, q_cmd, goal, dt * fraction, limits) if fraction < 1.0 else q_full
+    slowed = not np.array_equal(q_next, q_full)
+    dof = int(result.reached_dof)
     for _ in range(4):
         if segment_valid(design, q_cmd, q_next, scene, clearance):
-            return q_next, int(result.reached_dof), (), jumped
+            return FollowStep(q_next, dof, (), goal, swing, slowed)
         q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
-    return q_cmd, int(result.reached_dof), (), jumped
+    return FollowStep(q_cmd, dof, (), goal, swing, False)
+
+
+class Follower:
+    """``follow_step`` with the loop's memory between periods.
+
+    It keeps the last goal (so that a goal moving smoothly ahead of a lagging command is
+    not taken for a new swing) and the speed fraction: ``JUMP_SPEED`` after a swing, back
+    up to the full limit over ``JUMP_RAMP`` seconds, so that neither the start of a swing
+    nor its end comes at once.
+    """
+
+    def __init__(self, design: ArmDesign, dt: float, limits: MotionLimits, scene=None,
+                 clearance: float = 0.0):  # fmt: skip
+        self.design, self.dt, self.limits = design, dt, limits
+        self.scene, self.clearance = scene, clearance
+        self.speed = 1.0
+        self.goal = None
+
+    def step(self, q_cmd, target) -> FollowStep:
+        """The next command from ``q_cmd`` towards ``target`` = (p, e) (``follow_step``)."""
+        out = follow_step(
+            self.design, q_cmd, target, self.dt, self.limits, self.scene, self.clearance,
+            speed=self.speed, previous_goal=self.goal,
+        )  # fmt: skip
+        if out.goal is not None:
+            self.goal = out.goal
+        if out.swing:
+            self.speed = JUMP_SPEED
+        self.speed = min(1.0, self.speed + (1.0 - JUMP_SPEED) * self.dt / JUMP_RAMP)
+        return out
 
 
 def _warm_up(design: ArmDesign, q, dt: float, limits: MotionLimits, scene, clearance) -> float:
@@ -278,7 +335,7 @@ def follow(
     the loop calls (``handarm.ik.warm_up`` and one step from the present pose, so that no
     period stalls on a first use: 85 s measured on a fresh install, about a second after,
     a few seconds with a scene), reads and checks the present pose again (the arm was limp
-    meanwhile) and turns torque on holding it. Every period: newest target -> ``follow_step`` ->
+    meanwhile) and turns torque on holding it. Every period: newest target -> ``Follower.step`` ->
     ``send_sample`` -> one servo's health (``check_health``). A bad target line, a fault
     or Ctrl-C holds the arm and raises.
 
@@ -290,7 +347,7 @@ def follow(
         median, 95th percentile, max), ``period_ms`` (same),
         ``q`` (last command, rad), ``blocked_by`` (obstacles that blocked every exact
         solution of some target, which the arm held before), ``slowed_periods`` (periods
-        whose IK answer jumped to another family, stepped at ``JUMP_SPEED``) and
+        whose step the swing speed shortened, ``Follower``) and
         ``warm_up_s`` (the kernels' warm-up before torque on, s).
     """
     limits = MotionLimits(design) if limits is None else limits
@@ -309,7 +366,8 @@ def follow(
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
-    target, latencies, periods, n_targets, n_jumps = None, [], [], 0, 0
+    target, latencies, periods, n_targets, n_slowed = None, [], [], 0, 0
+    follower = Follower(design, dt, limits, scene, clearance)
     i = 0
     t0 = last = time.perf_counter()
     try:
@@ -325,10 +383,10 @@ def follow(
                 target = parse_target(line, f"target line {n}")
                 n_targets += 1
             if target is not None:
-                step = follow_step(design, q_cmd, target, dt, limits, scene, clearance)
-                q_next, _, blocked, jumped = step
-                blockers.update(blocked)
-                n_jumps += jumped
+                step = follower.step(q_cmd, target)
+                q_next = step.q
+                blockers.update(step.blocked_by)
+                n_slowed += step.slowed
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:
                     latencies.append(time.perf_counter() - arrival)
@@ -370,6 +428,6 @@ def follow(
         "period_ms": stats(periods),
         "q": q_cmd,
         "blocked_by": sorted(blockers),
-        "slowed_periods": n_jumps,
+        "slowed_periods": n_slowed,
         "warm_up_s": warm_up_s,
     }
