@@ -618,3 +618,30 @@ def test_follow_loop_counts_its_slowed_periods(design):
     assert np.all(steps <= fraction * period + 2 * tick)
     assert steps[0] <= JUMP_SPEED * period + 2 * tick
     assert steps[-1] > 1.5 * JUMP_SPEED * period  # it speeds up
+
+
+def test_follow_from_a_file_ends_when_the_steps_only_round(design, monkeypatch):
+    """A file source ends once its last target is reached, even where the answers from
+    commands a rounding apart alternate between two configurations (1.3e-14 rad apart, as
+    a hostile check found on a near-vertical target): the loop ends on SETTLED, not on an
+    exact match, which would never come."""
+    from handarm.firmware_bridge import follow as F
+
+    real = F.Follower.step
+    calls = []
+
+    def wobbling(self, q_cmd, target):
+        out = real(self, q_cmd, target)
+        calls.append(1)
+        if np.abs(out.q - q_cmd).max() < 1e-6:  # arrived: step back and forth by a rounding
+            out = out._replace(q=q_cmd + (1.3e-14 if len(calls) % 2 else -1.3e-14))
+        return out
+
+    monkeypatch.setattr(F.Follower, "step", wobbling)
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        start = B.check_state(bus, design, cal, 1.0)
+        line = json.dumps({"p": list(handarm.forward(design, start)[0]),
+                           "e": list(handarm.forward(design, start)[1])})  # fmt: skip
+        stats = F.follow(bus, design, cal, F.TargetSource([line], paced=True), max_periods=500)
+    assert stats["periods"] < 50  # not the 500 of an endless loop
