@@ -331,8 +331,9 @@ def _solvable_in_order(design, p, dirs, wanted, block: int = 64):
     scene (whose counts test every direction they are given) ``block`` at a time.
     """
     start = 0
+    free = _SCENE.get() is None
     while start < len(dirs):
-        if _SCENE.get() is None:
+        if free:
             k = max(int(wanted()), 1)
             hits = _first_solvable(design, p, dirs[start:], k)
             yield from (start + int(i) for i in hits)

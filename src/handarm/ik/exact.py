@@ -649,7 +649,10 @@ def _check_branch(branch) -> np.ndarray:
 
 
 def _line_directions(p, e, signs, azimuth) -> tuple[np.ndarray, np.ndarray]:
-    """``_line_direction`` for each of the branch signs ``signs`` (the same arithmetic)."""
+    """D (arrays dx, dy) for each branch sign of ``signs``, computed as the kernel does.
+
+    h / |h| with h the horizontal part of e, or the azimuth for a vertical e.
+    """
     signs = np.asarray(signs, dtype=float)
     h = math.hypot(e[0], e[1])
     if h >= VERTICAL_EPS:
@@ -659,12 +662,9 @@ def _line_directions(p, e, signs, azimuth) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _line_direction(p, e, sign, azimuth) -> tuple[float, float]:
-    """D for a branch sign, computed exactly as the kernel does (h / |h|, or the azimuth)."""
-    h = math.hypot(e[0], e[1])
-    if h >= VERTICAL_EPS:
-        return sign * e[0] / h, sign * e[1] / h
-    psi = _default_vertical_azimuth(p) if azimuth is None else float(azimuth)
-    return sign * math.cos(psi), sign * math.sin(psi)
+    """D for one branch sign (``_line_directions``)."""
+    dx, dy = _line_directions(p, e, [sign], azimuth)
+    return float(dx[0]), float(dy[0])
 
 
 def configuration_at(
