@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from tests.ik.conftest import valid_configurations
+from tests.ik.conftest import random_design, valid_configurations
 
 import handarm
 from handarm import ik
@@ -133,6 +133,50 @@ def test_two_dof_nearest_position_and_pointing():
         # pointing at the target whenever the arm can, else its stretched direction
         if angle(r.achieved_direction, aim) > 1e-9:
             assert ik.solve(d, r.achieved_position, aim, degrade=False).count == 0
+
+
+def _disk_bound(design, p):
+    """No tool point comes nearer p than this: every tool point lies within a4 + a5 + a6 of
+    the base-plane disk of radius a1 + a2 + a3 (the base chain's reach)."""
+    a = design.lengths
+    rho = math.hypot(p[0], p[1])
+    return math.hypot(max(rho - a[1:4].sum(), 0.0), p[2]) - a[4:7].sum()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
+    """Beyond the reach the stretched arm aimed at p (from the base disk's rim) is the
+    nearest point of all whenever it is within the limits and valid: level 2 answers with
+    exactly the bound's distance, no farther than a polish of the seeds and no farther than
+    a brute-force cloud of valid configurations; elsewhere never nearer than the bound."""
+    from handarm.ik import degrade
+
+    rng = np.random.default_rng(seed)
+    d = handarm.ArmDesign() if seed == 0 else random_design(rng)
+    cloud = handarm.forward(d, valid_configurations(d, rng, 100000))[0]
+    reach = float(d.lengths[1:].sum())
+    p_all = rng.normal(size=(40, 3))
+    p_all *= reach * rng.uniform(1.01, 1.6, (40, 1)) / np.linalg.norm(p_all, axis=1, keepdims=True)
+    met = 0
+    for p in p_all:
+        e = rng.normal(size=3)
+        r = ik.solve(d, p, e / np.linalg.norm(e))
+        assert r.reached_dof == 2
+        check_pose(d, r)
+        bound = _disk_bound(d, p)
+        assert r.position_error >= bound - 1e-12
+        assert r.position_error <= np.linalg.norm(cloud - p, axis=1).min() + 1e-12
+        polished = degrade._two_dof(d, p, e, None, degrade._polished(d, p, None))
+        assert r.position_error <= polished.position_error + 1e-12
+        # the stretched arm aimed at p, built here from the geometry
+        rim = d.lengths[1:4].sum()
+        rho, azimuth = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
+        q = np.array([azimuth, 0.0, 0.0, math.atan2(p[2], rho - rim), 0.0, 0.0])
+        if rho > rim and handarm.is_valid(d, q):
+            met += 1
+            assert r.position_error == pytest.approx(bound, abs=1e-12)
+            np.testing.assert_allclose(r.achieved_position, handarm.forward(d, q)[0], atol=1e-12)
+    assert met >= 5
 
 
 @pytest.mark.parametrize(

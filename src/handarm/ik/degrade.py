@@ -13,7 +13,9 @@ keeps what its name says:
     p exact; the reachable direction closest to e.
 2 DoF
     p out of reach: the nearest reachable tool point, with the tool pointing at p when the
-    arm can. Valid configurations near p are polished towards it; those a printed-link
+    arm can. Beyond every configuration's reach a bound proves the stretched arm aimed at p
+    the nearest wherever it is within the limits and valid (``_stretched_towards``).
+    Elsewhere valid configurations near p are polished towards it; those a printed-link
     contact stopped then slide along it (``handarm.ik._nearest.slide``), since the nearest
     point usually lies on such a contact.
 
@@ -736,15 +738,54 @@ def _configs_reaching(polished) -> np.ndarray:
     return np.ascontiguousarray(qs[errs < 1e-9])
 
 
+def _stretched_towards(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | None:
+    """The valid configuration whose tool point is nearest p, when a bound proves it; or None.
+
+    Every tool point is j4 + (u cos psi, u sin psi, v) with j4 in the base plane, |j4| <= rb
+    = a1 + a2 + a3 and |(u, v)| <= rt = a4 + a5 + a6 (``handarm.ik._polish``): it lies within
+    rt of the disk |j4| <= rb, so no configuration comes nearer p than dist(p, disk) - rt.
+    When p lies beyond that (dist > rt) and outside the disk's cylinder, the disk's nearest
+    point is on its rim at p's azimuth, and the one configuration meeting the bound is the
+    stretched arm: q = (azimuth, 0, 0, s, 0, 0), s the elevation of p seen from that rim
+    point. Where it is within the limits and valid (and clear of the scene) it is the answer,
+    exactly; else (behind the base beyond joint 1's limits, near the vertical axis, a contact)
+    None, and level 2 polishes its seeds.
+    """
+    a = design.lengths
+    rb, rt = float(a[1] + a[2] + a[3]), float(a[4] + a[5] + a[6])
+    rho = math.hypot(p[0], p[1])
+    if rho <= rb * (1.0 + 1e-9) or math.hypot(rho - rb, p[2]) <= rt * (1.0 + 1e-9):
+        return None  # the nearest disk point is not unique, or p may be within reach
+    azimuth = math.atan2(p[1], p[0])
+    # joint 1 at the azimuth or a turn either way (one pose), whichever its limits hold: the
+    # nearest current's, else the nearest 0
+    near = 0.0 if current is None else float(current[0])
+    turns = [azimuth + k * 2.0 * math.pi for k in (-1, 0, 1)]
+    turns = [q1 for q1 in turns if design.lower[0] <= q1 <= design.upper[0]]
+    if not turns:
+        return None
+    q1 = min(turns, key=lambda t: abs(t - near))
+    q = np.array([q1, 0.0, 0.0, math.atan2(p[2], rho - rb), 0.0, 0.0])
+    return q if _valid(design, q) else None
+
+
 def _two_dof(design: ArmDesign, p, e, current, polished=None) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can.
 
     ``polished``: the seeds already polished towards p (``_polished``), if they are.
     """
     best_q, best_err = None, math.inf
-    if polished is None:
-        polished = _polished(design, p, current)
-    qs, errs = _slid(design, p, polished)
+    stretched = _stretched_towards(design, p, current) if polished is None else None
+    if stretched is not None:
+        # the nearest point of all, proven by a bound: no polish can do better
+        qs, errs = (
+            stretched[None, :],
+            np.array([float(np.linalg.norm(_pose(design, stretched)[0] - p))]),
+        )
+    else:
+        if polished is None:
+            polished = _polished(design, p, current)
+        qs, errs = _slid(design, p, polished)
     for q, err in zip(qs, errs, strict=True):
         if err < best_err - 1e-12:
             best_q, best_err = q, float(err)
