@@ -136,19 +136,38 @@ def test_two_dof_nearest_position_and_pointing():
 
 
 def _disk_bound(design, p):
-    """No tool point comes nearer p than this: every tool point lies within a4 + a5 + a6 of
-    the base-plane disk of radius a1 + a2 + a3 (the base chain's reach)."""
+    """(bound, q): no tool point comes nearer p than bound, and q is the configuration that
+    would meet it.
+
+    Every tool point lies within a4 + a5 + a6 of the base-plane disk of radius a2 + a3 about
+    joint 2, at a1 (cos q1, sin q1): the bound is the least over q1 within its limits (here
+    over a dense grid, its ends and p's azimuth) of p's distance from that disk, less a4 +
+    a5 + a6; q is the arm stretched towards p from joint 2 at that q1.
+    """
     a = design.lengths
-    rho = math.hypot(p[0], p[1])
-    return math.hypot(max(rho - a[1:4].sum(), 0.0), p[2]) - a[4:7].sum()
+    r2, rt = a[2] + a[3], a[4:7].sum()
+    azimuth = math.atan2(p[1], p[0])
+    q1s = np.concatenate([np.linspace(design.lower[0], design.upper[0], 20001),
+                          azimuth + 2 * np.pi * np.arange(-1, 2)])  # fmt: skip
+    q1s = q1s[(q1s >= design.lower[0]) & (q1s <= design.upper[0])]
+    vx, vy = p[0] - a[1] * np.cos(q1s), p[1] - a[1] * np.sin(q1s)
+    dist = np.hypot(np.maximum(np.hypot(vx, vy) - r2, 0.0), p[2]) - rt
+    k = np.argmin(dist)
+    r = math.hypot(vx[k], vy[k])
+    q = np.array(
+        [q1s[k], math.atan2(vy[k], vx[k]) - q1s[k], 0.0, math.atan2(p[2], r - r2), 0.0, 0.0]
+    )
+    q[1] = math.remainder(q[1], 2 * math.pi)
+    return float(dist[k]), q, r > r2
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
-    """Beyond the reach the stretched arm aimed at p (from the base disk's rim) is the
-    nearest point of all whenever it is within the limits and valid: level 2 answers with
-    exactly the bound's distance, no farther than a polish of the seeds and no farther than
-    a brute-force cloud of valid configurations; elsewhere never nearer than the bound."""
+    """Beyond the reach the arm stretched towards p from joint 2, with joint 1 as near p's
+    azimuth as its limits allow, is the nearest point of all whenever it is within the
+    limits and valid: level 2 answers with exactly the bound's distance, no farther than a
+    polish of the seeds and no farther than a brute-force cloud of valid configurations;
+    elsewhere never nearer than the bound."""
     from handarm.ik import degrade
 
     rng = np.random.default_rng(seed)
@@ -157,26 +176,29 @@ def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
     reach = float(d.lengths[1:].sum())
     p_all = rng.normal(size=(40, 3))
     p_all *= reach * rng.uniform(1.01, 1.6, (40, 1)) / np.linalg.norm(p_all, axis=1, keepdims=True)
-    met = 0
-    for p in p_all:
+    # and points within the stretched arm's length that the bound still puts out of reach
+    # (behind the base, beyond joint 1's limits)
+    near = rng.normal(size=(4000, 3))
+    near *= reach * rng.uniform(0.6, 1.0, (4000, 1)) / np.linalg.norm(near, axis=1, keepdims=True)
+    near = [p for p in near if _disk_bound(d, p)[0] > 1e-6][:15]
+    assert seed == 0 or len(near) >= 5
+    met = behind = 0
+    for p in [*p_all, *near]:
         e = rng.normal(size=3)
         r = ik.solve(d, p, e / np.linalg.norm(e))
         assert r.reached_dof == 2
         check_pose(d, r)
-        bound = _disk_bound(d, p)
+        bound, q, outside = _disk_bound(d, p)
         assert r.position_error >= bound - 1e-12
         assert r.position_error <= np.linalg.norm(cloud - p, axis=1).min() + 1e-12
         polished = degrade._two_dof(d, p, e, None, degrade._polished(d, p, None))
         assert r.position_error <= polished.position_error + 1e-12
-        # the stretched arm aimed at p, built here from the geometry
-        rim = d.lengths[1:4].sum()
-        rho, azimuth = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
-        q = np.array([azimuth, 0.0, 0.0, math.atan2(p[2], rho - rim), 0.0, 0.0])
-        if rho > rim and handarm.is_valid(d, q):
+        if outside and handarm.is_valid(d, q):
             met += 1
+            behind += abs(q[1]) > 1e-9  # joint 1 at a limit, the arm stretched from joint 2
             assert r.position_error == pytest.approx(bound, abs=1e-12)
             np.testing.assert_allclose(r.achieved_position, handarm.forward(d, q)[0], atol=1e-12)
-    assert met >= 5
+    assert met >= 10 and (seed != 0 or behind >= 3)
 
 
 @pytest.mark.parametrize(

@@ -13,8 +13,9 @@ keeps what its name says:
     p exact; the reachable direction closest to e.
 2 DoF
     p out of reach: the nearest reachable tool point, with the tool pointing at p when the
-    arm can. Beyond every configuration's reach a bound proves the stretched arm aimed at p
-    the nearest wherever it is within the limits and valid (``_stretched_towards``).
+    arm can. A bound on every configuration's reach tells p out of reach before any search,
+    and proves the arm stretched towards p the nearest wherever that is within the limits
+    and valid (``_reach_bound``).
     Elsewhere valid configurations near p are polished towards it; those a printed-link
     contact stopped then slide along it (``handarm.ik._nearest.slide``), since the nearest
     point usually lies on such a contact.
@@ -550,11 +551,11 @@ def degrade_target(
 
 
 def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
-    if math.sqrt(float(p @ p)) > float(np.sum(design.lengths[1:])) * (1.0 + 1e-12):
-        # beyond the stretched arm's reach from joint 1: nothing reaches p (not even a
-        # degenerate pose) and no direction is solvable there, so levels 4 and 3 have
-        # nothing to find
-        return _two_dof(design, p, e, current)
+    bound, stretched = _reach_bound(design, p, current)
+    if bound > 1e-12 * float(np.sum(design.lengths[1:])):
+        # no configuration comes within bound of p (not even a degenerate pose) and no
+        # direction is solvable there, so levels 4 and 3 have nothing to find
+        return _two_dof(design, p, e, current, stretched=stretched)
     # valid configurations that reach p (the stretched arm aimed at p, current and cloud
     # points, polished): one with e's direction is a degenerate exact pose (the straight
     # arm); level 3 starts from their directions, and level 4 projects them onto its circles
@@ -738,44 +739,56 @@ def _configs_reaching(polished) -> np.ndarray:
     return np.ascontiguousarray(qs[errs < 1e-9])
 
 
-def _stretched_towards(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | None:
-    """The valid configuration whose tool point is nearest p, when a bound proves it; or None.
+def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.ndarray | None]:
+    """A lower bound on the distance from p of every tool point, and the configuration meeting it.
 
-    Every tool point is j4 + (u cos psi, u sin psi, v) with j4 in the base plane, |j4| <= rb
-    = a1 + a2 + a3 and |(u, v)| <= rt = a4 + a5 + a6 (``handarm.ik._polish``): it lies within
-    rt of the disk |j4| <= rb, so no configuration comes nearer p than dist(p, disk) - rt.
-    When p lies beyond that (dist > rt) and outside the disk's cylinder, the disk's nearest
-    point is on its rim at p's azimuth, and the one configuration meeting the bound is the
-    stretched arm: q = (azimuth, 0, 0, s, 0, 0), s the elevation of p seen from that rim
-    point. Where it is within the limits and valid (and clear of the scene) it is the answer,
-    exactly; else (behind the base beyond joint 1's limits, near the vertical axis, a contact)
-    None, and level 2 polishes its seeds.
+    Returns (bound, q): bound in m (<= 0 where p may be reached); q the valid configuration
+    meeting it, where the bound proves one nearest, or None.
+
+    Every tool point is j4 + (u cos psi, u sin psi, v) with |(u, v)| <= rt = a4 + a5 + a6
+    (``handarm.ik._polish``), and j4 lies in the base-plane disk of radius a2 + a3 about joint
+    2, which sits at a1 (cos q1, sin q1). So no configuration comes nearer p than the least,
+    over q1 within its limits, of p's distance from that disk less rt; and the disk is
+    nearest p where q1 is as near p's azimuth as the limits allow (its distance from p grows
+    with the angle between them). Where p lies beyond that disk's cylinder and farther than
+    rt from it, the one configuration meeting the bound is the arm stretched from joint 2
+    towards p: q = (q1, the azimuth of p from joint 2 less q1, 0, s, 0, 0), s the elevation
+    of p seen from the disk's rim (with q1 at p's azimuth, the whole arm stretched at it).
+    Where that is within the limits and valid (and clear of the scene) it is level 2's
+    answer, exactly; else (joint 2 beyond its limits, p above or below the disk, a contact)
+    q is None, and level 2 polishes its seeds.
     """
     a = design.lengths
-    rb, rt = float(a[1] + a[2] + a[3]), float(a[4] + a[5] + a[6])
-    rho = math.hypot(p[0], p[1])
-    if rho <= rb * (1.0 + 1e-9) or math.hypot(rho - rb, p[2]) <= rt * (1.0 + 1e-9):
-        return None  # the nearest disk point is not unique, or p may be within reach
+    lower, upper = design.lower, design.upper
+    r2, rt = float(a[2] + a[3]), float(a[4] + a[5] + a[6])
     azimuth = math.atan2(p[1], p[0])
-    # joint 1 at the azimuth or a turn either way (one pose), whichever its limits hold: the
-    # nearest current's, else the nearest 0
-    near = 0.0 if current is None else float(current[0])
+    # joint 1 at p's azimuth (or a turn either way: one pose) if its limits hold it, else at
+    # the limit nearest it; of two equally near, the nearest current's (else 0)
     turns = [azimuth + k * 2.0 * math.pi for k in (-1, 0, 1)]
-    turns = [q1 for q1 in turns if design.lower[0] <= q1 <= design.upper[0]]
-    if not turns:
-        return None
-    q1 = min(turns, key=lambda t: abs(t - near))
-    q = np.array([q1, 0.0, 0.0, math.atan2(p[2], rho - rb), 0.0, 0.0])
-    return q if _valid(design, q) else None
+    held = [t for t in turns if lower[0] <= t <= upper[0]]
+    if not held:
+        held = [float(lower[0]), float(upper[0])]
+        nearest = max(math.cos(t - azimuth) for t in held)
+        held = [t for t in held if math.cos(t - azimuth) >= nearest - 1e-15]
+    near = 0.0 if current is None else float(current[0])
+    q1 = min(held, key=lambda t: abs(t - near))
+    vx, vy = p[0] - a[1] * math.cos(q1), p[1] - a[1] * math.sin(q1)
+    r = math.hypot(vx, vy)
+    bound = math.hypot(max(r - r2, 0.0), p[2]) - rt
+    if r <= r2 * (1.0 + 1e-9) or bound <= 1e-9 * rt:
+        return bound, None  # the disk's nearest point is not unique, or p may be reached
+    q2 = math.remainder(math.atan2(vy, vx) - q1, 2.0 * math.pi)
+    q = np.array([q1, q2, 0.0, math.atan2(p[2], r - r2), 0.0, 0.0])
+    return bound, (q if _valid(design, q) else None)
 
 
-def _two_dof(design: ArmDesign, p, e, current, polished=None) -> IKResult:
+def _two_dof(design: ArmDesign, p, e, current, polished=None, stretched=None) -> IKResult:
     """Nearest reachable tool point; the tool points at p when the arm can.
 
-    ``polished``: the seeds already polished towards p (``_polished``), if they are.
+    ``polished``: the seeds already polished towards p (``_polished``), if they are;
+    ``stretched``: the configuration ``_reach_bound`` proved nearest, if it did.
     """
     best_q, best_err = None, math.inf
-    stretched = _stretched_towards(design, p, current) if polished is None else None
     if stretched is not None:
         # the nearest point of all, proven by a bound: no polish can do better
         qs, errs = (
