@@ -165,8 +165,9 @@ def _disk_bound(design, p):
 def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
     """Beyond the reach the arm stretched towards p from joint 2, with joint 1 as near p's
     azimuth as its limits allow, is the nearest point of all whenever it is within the
-    limits and valid: level 2 answers with exactly the bound's distance, no farther than a
-    polish of the seeds and no farther than a brute-force cloud of valid configurations;
+    limits and valid (above or below the base's reach, the arm with joint 4 under p and the
+    tip chain vertical): level 2 answers with exactly the bound's distance, no farther than
+    a polish of the seeds and no farther than a brute-force cloud of valid configurations;
     elsewhere never nearer than the bound."""
     from handarm.ik import degrade
 
@@ -182,7 +183,7 @@ def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
     near *= reach * rng.uniform(0.6, 1.0, (4000, 1)) / np.linalg.norm(near, axis=1, keepdims=True)
     near = [p for p in near if _disk_bound(d, p)[0] > 1e-6][:15]
     assert seed == 0 or len(near) >= 5
-    met = behind = 0
+    met = behind = above = 0
     for p in [*p_all, *near]:
         e = rng.normal(size=3)
         r = ik.solve(d, p, e / np.linalg.norm(e))
@@ -198,7 +199,12 @@ def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
             behind += abs(q[1]) > 1e-9  # joint 1 at a limit, the arm stretched from joint 2
             assert r.position_error == pytest.approx(bound, abs=1e-12)
             np.testing.assert_allclose(r.achieved_position, handarm.forward(d, q)[0], atol=1e-12)
-    assert met >= 10 and (seed != 0 or behind >= 3)
+        elif not outside and seed == 0:
+            # above or below the base's reach: joint 4 under p, the tip chain vertical
+            above += 1
+            assert r.position_error == pytest.approx(bound, abs=1e-12)
+            np.testing.assert_allclose(r.achieved_position[:2], p[:2], atol=1e-12)
+    assert met >= 10 and (seed != 0 or (behind >= 3 and above >= 3))
 
 
 @pytest.mark.parametrize(

@@ -750,13 +750,14 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     2, which sits at a1 (cos q1, sin q1). So no configuration comes nearer p than the least,
     over q1 within its limits, of p's distance from that disk less rt; and the disk is
     nearest p where q1 is as near p's azimuth as the limits allow (its distance from p grows
-    with the angle between them). Where p lies beyond that disk's cylinder and farther than
-    rt from it, the one configuration meeting the bound is the arm stretched from joint 2
+    with the angle between them). Where p lies farther than rt from it and beyond its
+    cylinder, the one configuration meeting the bound is the arm stretched from joint 2
     towards p: q = (q1, the azimuth of p from joint 2 less q1, 0, s, 0, 0), s the elevation
-    of p seen from the disk's rim (with q1 at p's azimuth, the whole arm stretched at it).
-    Where that is within the limits and valid (and clear of the scene) it is level 2's
-    answer, exactly; else (joint 2 beyond its limits, p above or below the disk, a contact)
-    q is None, and level 2 polishes its seeds.
+    of p seen from the disk's rim (with q1 at p's azimuth, the whole arm stretched at it);
+    within the cylinder, those with joint 4 under p and the tip chain vertical
+    (``_above_the_disk``). Where one is within the limits and valid (and clear of the scene)
+    it is level 2's answer, exactly; else (joint 2 beyond its limits, a contact) q is None,
+    and level 2 polishes its seeds.
     """
     a = design.lengths
     lower, upper = design.lower, design.upper
@@ -775,11 +776,57 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     vx, vy = p[0] - a[1] * math.cos(q1), p[1] - a[1] * math.sin(q1)
     r = math.hypot(vx, vy)
     bound = math.hypot(max(r - r2, 0.0), p[2]) - rt
-    if r <= r2 * (1.0 + 1e-9) or bound <= 1e-9 * rt:
-        return bound, None  # the disk's nearest point is not unique, or p may be reached
+    if bound <= 1e-9 * rt:
+        return bound, None  # p may be reached
+    if r <= r2 * (1.0 + 1e-9):
+        return bound, _above_the_disk(design, p, current)
     q2 = math.remainder(math.atan2(vy, vx) - q1, 2.0 * math.pi)
     q = np.array([q1, q2, 0.0, math.atan2(p[2], r - r2), 0.0, 0.0])
     return bound, (q if _valid(design, q) else None)
+
+
+#: Tip-plane azimuths tried for a point straight above or below the base's reach.
+_ABOVE_PSI = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+
+
+def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | None:
+    """A valid configuration reaching (p_x, p_y, +-(a4 + a5 + a6)), or None.
+
+    p lies above or below the base's reach (within the cylinder of ``_reach_bound``'s disk)
+    and out of reach: such a configuration, joint 4 at (p_x, p_y) and the tip chain
+    vertical, meets the bound, so it is nearest. They form a family over the tip plane's
+    azimuth psi (and the base's elbow): those at 72 azimuths (and current's, first) are
+    tried, and of the valid ones the nearest current (else the nearest the zero pose) is
+    taken.
+    """
+    a = design.lengths
+    psi = _ABOVE_PSI
+    if current is not None:
+        psi = np.append(float(current[0] + current[1] + current[2]), psi)
+    # joint 3 one link back from joint 4 along the tip plane; joints 1 and 2 reach it
+    j3x, j3y = p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)
+    c2 = (j3x**2 + j3y**2 - a[1] ** 2 - a[2] ** 2) / (2.0 * a[1] * a[2])
+    ok = np.abs(c2) <= 1.0
+    psi, j3x, j3y, c2 = psi[ok], j3x[ok], j3y[ok], c2[ok]
+    q = np.zeros((2 * len(psi), 6))
+    for k, elbow in enumerate((1.0, -1.0)):
+        rows = slice(k * len(psi), (k + 1) * len(psi))
+        q2 = elbow * np.arccos(c2)
+        q1 = np.arctan2(j3y, j3x) - np.arctan2(a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2))
+        q[rows, 0] = np.remainder(q1 + math.pi, 2.0 * math.pi) - math.pi
+        q[rows, 1] = q2
+        q[rows, 2] = np.remainder(psi - q[rows, 0] - q2 + math.pi, 2.0 * math.pi) - math.pi
+    q[:, 3] = math.copysign(0.5 * math.pi, p[2])
+    q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]
+    near = np.zeros(6) if current is None else current
+    q = q[np.argsort(np.linalg.norm(q - near, axis=1), kind="stable")]
+    printed = design.collision_model == "printed"
+    for start in range(0, len(q), 8):  # nearest first: most often the first is valid
+        chunk = q[start : start + 8]
+        for row in chunk[collision_free(design, chunk)] if printed else chunk:
+            if _valid(design, row):  # the model (and the scene, if there is one)
+                return row
+    return None
 
 
 def _two_dof(design: ArmDesign, p, e, current, polished=None, stretched=None) -> IKResult:
