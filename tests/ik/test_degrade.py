@@ -207,6 +207,76 @@ def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
     assert met >= 10 and (seed != 0 or (behind >= 3 and above >= 3))
 
 
+def _above_family(design, p, n_psi=3600):
+    """Valid configurations with joint 4 under (or over) p and the tip chain vertical, on a
+    grid of tip-plane azimuths psi and both elbows: above or below the base's reach every
+    one of them is a nearest point of all (``forward`` confirms each reaches (p_x, p_y,
+    +-(a4 + a5 + a6)))."""
+    a = design.lengths
+    psi = np.linspace(-np.pi, np.pi, n_psi, endpoint=False)
+    # joint 3 one link back from joint 4 along the tip plane; joints 1 and 2 reach it
+    j3 = np.stack([p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)], 1)
+    rows = []
+    for elbow in (1, -1):
+        with np.errstate(invalid="ignore"):  # NaN where joint 3 is out of their reach
+            q2 = elbow * np.arccos(((j3**2).sum(1) - a[1] ** 2 - a[2] ** 2) / (2 * a[1] * a[2]))
+        q1 = np.arctan2(j3[:, 1], j3[:, 0]) - np.arctan2(
+            a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2)
+        )
+        q = np.zeros((n_psi, 6))
+        q[:, 0], q[:, 1] = np.angle(np.exp(1j * q1)), q2
+        q[:, 2] = np.angle(np.exp(1j * (psi - q1 - q2)))
+        q[:, 3] = math.copysign(np.pi / 2, p[2])
+        rows.append(q[np.isfinite(q2)])
+    q = np.concatenate(rows)
+    q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]
+    tip = handarm.forward(design, q)[0]
+    rt = a[4:7].sum()
+    at = np.all(np.abs(tip - [p[0], p[1], math.copysign(rt, p[2])]) < 1e-9, axis=1)
+    assert at.all()
+    return q[handarm.is_valid(design, q)]
+
+
+@pytest.mark.parametrize(("height", "radius"), [(1, 0.5), (-1, 0.8)])
+def test_level_two_over_the_base_follows_the_nearest_of_the_nearest_points(height, radius):
+    """A target circling 2 cm above (below) the base's reach: every answer meets the bound
+    (the tip chain vertical under the target) and moves current no farther than the nearest
+    valid configuration that meets it (a dense grid of them, less its spacing). The first
+    version took the nearest of 72 azimuths: along a contact its steps jumped 19 degrees
+    where one of 1 degree met the bound."""
+    d = handarm.ArmDesign()
+    a = d.lengths
+    rt, rho = a[4:7].sum(), radius * (a[1] + a[2] + a[3])
+    e = np.array([0.3, -0.2, 0.9]) / np.linalg.norm([0.3, -0.2, 0.9])
+    n = int(2 * math.pi * rho / 0.004)
+    current, checked = np.zeros(6), 0
+    for t in np.linspace(0, 2 * math.pi, n):
+        p = np.array([rho * math.cos(t), rho * math.sin(t), height * (rt + 0.02)])
+        r = ik.solve(d, p, e, current=current)
+        family = _above_family(d, p)
+        if r.reached_dof == 2 and len(family):
+            checked += 1
+            assert r.position_error == pytest.approx(0.02, abs=1e-12)
+            nearest = np.linalg.norm(family - current, axis=1).min()
+            assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.3)
+        current = r.follow
+    assert checked >= 0.8 * n
+
+
+def test_level_two_over_the_base_from_beside_a_contact():
+    """The case that found it: the paper's arm, current's own nearest point in collision."""
+    d = handarm.ArmDesign()
+    p = np.array([0.07402876969784347, -0.01203084606433205, 0.17])
+    current = np.array([0.374848176239227, -0.111933806146062, -2.270043007886643,
+                        math.pi / 2, 0.0, 0.0])  # fmt: skip
+    r = ik.solve(d, p, [0.3, -0.2, 0.9], current=current)
+    assert r.reached_dof == 2
+    family = _above_family(d, p, 36000)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert nearest < math.radians(2)
+    assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.1)
+
+
 @pytest.mark.parametrize(
     ("q0_deg", "step", "steps"),
     [

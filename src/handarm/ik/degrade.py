@@ -787,46 +787,121 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
 
 #: Tip-plane azimuths tried for a point straight above or below the base's reach.
 _ABOVE_PSI = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+_ABOVE_STEP = 2.0 * math.pi / len(_ABOVE_PSI)
+
+#: Rounds narrowing the azimuth of the valid member nearest current: each keeps a
+#: sixteenth of the window, so 4 take the 72 azimuths' 10 degrees to about 1e-6 rad.
+_ABOVE_ROUNDS = 4
+
+
+def _above_members(design: ArmDesign, p: np.ndarray, psi: np.ndarray, elbow: float) -> np.ndarray:
+    """The configurations (n, 6) reaching (p_x, p_y, +-(a4 + a5 + a6)) at tip-plane azimuths psi.
+
+    Joint 4 at (p_x, p_y), the tip chain vertical, joints 1 and 2 reaching joint 3 (one link
+    back from joint 4 along the tip plane) with the given elbow (the sign of q2). Rows are
+    NaN where joint 3 is out of their reach.
+    """
+    a = design.lengths
+    j3x, j3y = p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)
+    c2 = (j3x**2 + j3y**2 - a[1] ** 2 - a[2] ** 2) / (2.0 * a[1] * a[2])
+    q2 = elbow * np.arccos(np.where(np.abs(c2) <= 1.0, c2, np.nan))
+    q1 = np.arctan2(j3y, j3x) - np.arctan2(a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2))
+    q = np.zeros((len(psi), 6))
+    q[:, 0] = np.remainder(q1 + math.pi, 2.0 * math.pi) - math.pi
+    q[:, 1] = q2
+    q[:, 2] = np.remainder(psi - q[:, 0] - q2 + math.pi, 2.0 * math.pi) - math.pi
+    q[:, 3] = math.copysign(0.5 * math.pi, p[2])
+    return q
+
+
+def _valid_rows(design: ArmDesign, q: np.ndarray) -> np.ndarray:
+    """``_valid`` of each row of q (n, 6); False for rows with NaN or beyond the limits."""
+    ok = np.all((q >= design.lower) & (q <= design.upper), axis=1)  # False for NaN
+    if not ok.any():
+        return ok
+    if design.collision_model == "printed":
+        ok[ok] = collision_free(design, q[ok])
+        if _SCENE.get() is None:
+            return ok
+    for k in np.flatnonzero(ok):
+        ok[k] = _valid(design, q[k])
+    return ok
 
 
 def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | None:
     """A valid configuration reaching (p_x, p_y, +-(a4 + a5 + a6)), or None.
 
     p lies above or below the base's reach (within the cylinder of ``_reach_bound``'s disk)
-    and out of reach: such a configuration, joint 4 at (p_x, p_y) and the tip chain
-    vertical, meets the bound, so it is nearest. They form a family over the tip plane's
-    azimuth psi (and the base's elbow): those at 72 azimuths (and current's, first) are
-    tried, and of the valid ones the nearest current (else the nearest the zero pose) is
-    taken.
+    and out of reach: such a configuration (``_above_members``) meets the bound, so it is
+    nearest. They form a family over the tip plane's azimuth psi and the base's elbow.
+    Without current, of those at 72 azimuths (and both elbows) the valid one nearest the
+    zero pose is taken. With current, the valid one nearest current (to about 1e-6 rad of
+    psi): a loop following the answer moves with the target, along the family's edge (a
+    contact, a limit) too, not a sample's spacing at a time.
     """
-    a = design.lengths
-    psi = _ABOVE_PSI
+    near = np.zeros(6) if current is None else np.asarray(current, dtype=float)
+    psi, elbow = _ABOVE_PSI, 1.0
     if current is not None:
-        psi = np.append(float(current[0] + current[1] + current[2]), psi)
-    # joint 3 one link back from joint 4 along the tip plane; joints 1 and 2 reach it
-    j3x, j3y = p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)
-    c2 = (j3x**2 + j3y**2 - a[1] ** 2 - a[2] ** 2) / (2.0 * a[1] * a[2])
-    ok = np.abs(c2) <= 1.0
-    psi, j3x, j3y, c2 = psi[ok], j3x[ok], j3y[ok], c2[ok]
-    q = np.zeros((2 * len(psi), 6))
-    for k, elbow in enumerate((1.0, -1.0)):
-        rows = slice(k * len(psi), (k + 1) * len(psi))
-        q2 = elbow * np.arccos(c2)
-        q1 = np.arctan2(j3y, j3x) - np.arctan2(a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2))
-        q[rows, 0] = np.remainder(q1 + math.pi, 2.0 * math.pi) - math.pi
-        q[rows, 1] = q2
-        q[rows, 2] = np.remainder(psi - q[rows, 0] - q2 + math.pi, 2.0 * math.pi) - math.pi
-    q[:, 3] = math.copysign(0.5 * math.pi, p[2])
-    q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]
-    near = np.zeros(6) if current is None else current
+        psi, elbow = np.append(float(near[0] + near[1] + near[2]), psi), math.copysign(1.0, near[1])
+    best = _nearest_valid(
+        design,
+        np.vstack([_above_members(design, p, psi, elbow), _above_members(design, p, psi, -elbow)]),
+        near,
+    )
+    if best is None or current is None:
+        return best
+    # the member nearest current lies near best (the distance is smooth in psi, its least
+    # between two samples) or near current's own member (its elbow, its psi): where that
+    # one is invalid, at the edge of a contact or a limit, which the samples may straddle
+    psi0, own, elbow = float(psi[0]), math.copysign(1.0, near[1]), math.copysign(1.0, best[1])
+    psi_best = _unwrap(best, psi0)
+    if elbow == own and abs(psi_best - psi0) <= 2.0 * _ABOVE_STEP:
+        windows = [(own, min(psi0, psi_best) - _ABOVE_STEP, max(psi0, psi_best) + _ABOVE_STEP)]
+    else:
+        windows = [(own, psi0 - _ABOVE_STEP, psi0 + _ABOVE_STEP),
+                   (elbow, psi_best - _ABOVE_STEP, psi_best + _ABOVE_STEP)]  # fmt: skip
+    for elbow, lo, hi in windows:
+        found = _nearest_member(design, p, near, elbow, lo, hi)
+        if found is not None and np.linalg.norm(found - near) < np.linalg.norm(best - near):
+            best = found
+    return best
+
+
+def _nearest_member(design, p, near, elbow, lo, hi) -> np.ndarray | None:
+    """The valid ``_above_members`` (of one elbow) nearest near with psi in [lo, hi], or None.
+
+    Each round tests 33 azimuths and narrows the window to two of their spacings about the
+    nearest valid one (to about 1e-6 rad after ``_ABOVE_ROUNDS``).
+    """
+    best = None
+    for _ in range(_ABOVE_ROUNDS):
+        found = _nearest_valid(
+            design, _above_members(design, p, np.linspace(lo, hi, 33), elbow), near
+        )
+        if found is None:
+            break
+        if best is None or np.linalg.norm(found - near) < np.linalg.norm(best - near):
+            best = found
+        middle, spacing = _unwrap(best, 0.5 * (lo + hi)), (hi - lo) / 32.0
+        lo, hi = middle - spacing, middle + spacing
+    return best
+
+
+def _nearest_valid(design: ArmDesign, q: np.ndarray, near: np.ndarray) -> np.ndarray | None:
+    """The row of q (n, 6) nearest near that is within the limits and valid, or None."""
+    q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]  # drops NaN rows too
     q = q[np.argsort(np.linalg.norm(q - near, axis=1), kind="stable")]
-    printed = design.collision_model == "printed"
     for start in range(0, len(q), 8):  # nearest first: most often the first is valid
         chunk = q[start : start + 8]
-        for row in chunk[collision_free(design, chunk)] if printed else chunk:
-            if _valid(design, row):  # the model (and the scene, if there is one)
-                return row
+        valid = np.flatnonzero(_valid_rows(design, chunk))
+        if len(valid):
+            return chunk[valid[0]]
     return None
+
+
+def _unwrap(q: np.ndarray, psi0: float) -> float:
+    """The tip-plane azimuth q1 + q2 + q3 of q, the turn nearest psi0."""
+    return psi0 + math.remainder(float(q[0] + q[1] + q[2]) - psi0, 2.0 * math.pi)
 
 
 def _two_dof(design: ArmDesign, p, e, current, polished=None, stretched=None) -> IKResult:
