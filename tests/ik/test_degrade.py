@@ -263,6 +263,26 @@ def test_level_two_over_the_base_follows_the_nearest_of_the_nearest_points(heigh
     assert checked >= 0.8 * n
 
 
+@pytest.mark.parametrize("beyond", [1e-13, 5e-13, 2e-12, 1e-11, 1e-10, 2e-9])
+def test_just_beyond_the_reach_is_reached_only_to_rounding(beyond):
+    """A target a hair beyond the stretched arm: reached (error 0) only within 1e-12 m,
+    the kinematics' rounding; beyond that level 2, with the true distance as its error."""
+    d = handarm.ArmDesign()
+    a = d.lengths
+    q = np.array([0.3, 0.0, 0.0, 0.4, 0.0, 0.0])  # stretched from joint 2
+    tip = handarm.forward(d, q)[0]
+    joint2 = a[1] * np.array([math.cos(0.3), math.sin(0.3), 0.0])
+    p = tip + beyond * (tip - joint2) / np.linalg.norm(tip - joint2)
+    r = ik.solve(d, p, [0.0, 0.0, 1.0])
+    true = np.linalg.norm(handarm.forward(d, r.solutions)[0] - p, axis=-1).max()
+    if r.reached_dof >= 3:
+        assert r.position_error == 0.0 and true <= 1e-12
+    else:
+        assert r.reached_dof == 2 and beyond > 1e-12
+        assert r.position_error == pytest.approx(true, rel=1e-9)
+        assert true == pytest.approx(beyond, rel=0.05)
+
+
 def test_level_two_over_the_base_from_beside_a_contact():
     """The case that found it: the paper's arm, current's own nearest point in collision."""
     d = handarm.ArmDesign()

@@ -99,7 +99,8 @@ _SPHERE = 2000
 #: direction's: with 8, level 3 missed one 2.6 deg nearer e on a random design (joint 1 at
 #: its limit, the wrist straight); 24 found it. 32 cost level 4 about 0.25 ms more (median).
 _SEEDS = 32
-#: m: a polished tool point this near the target is the target (rounding of the kinematics)
+#: m: a tool point this near the target is the target (rounding of the kinematics), and a
+#: target is out of reach where ``_reach_bound`` puts every tool point farther than this
 _AT_TARGET = 1e-12
 _STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
 _SAME_DIRECTION = 1e-3  # rad: seed directions closer than this start one search
@@ -552,7 +553,7 @@ def degrade_target(
 
 def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     bound, stretched = _reach_bound(design, p, current)
-    if bound > 1e-12 * float(np.sum(design.lengths[1:])):
+    if bound > _AT_TARGET:
         # no configuration comes within bound of p (not even a degenerate pose) and no
         # direction is solvable there, so levels 4 and 3 have nothing to find
         return _two_dof(design, p, e, current, stretched=stretched)
@@ -742,8 +743,8 @@ def _configs_reaching(polished) -> np.ndarray:
 def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.ndarray | None]:
     """A lower bound on the distance from p of every tool point, and the configuration meeting it.
 
-    Returns (bound, q): bound in m (<= 0 where p may be reached); q the valid configuration
-    meeting it, where the bound proves one nearest, or None.
+    Returns (bound, q): bound in m (p may be reached where it is at most ``_AT_TARGET``); q
+    the valid configuration meeting it, where the bound proves one nearest, or None.
 
     Every tool point is j4 + (u cos psi, u sin psi, v) with |(u, v)| <= rt = a4 + a5 + a6
     (``handarm.ik._polish``), and j4 lies in the base-plane disk of radius a2 + a3 about joint
@@ -776,7 +777,7 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     vx, vy = p[0] - a[1] * math.cos(q1), p[1] - a[1] * math.sin(q1)
     r = math.hypot(vx, vy)
     bound = math.hypot(max(r - r2, 0.0), p[2]) - rt
-    if bound <= 1e-9 * rt:
+    if bound <= _AT_TARGET:
         return bound, None  # p may be reached
     if r <= r2 * (1.0 + 1e-9):
         return bound, _above_the_disk(design, p, current)
