@@ -21,6 +21,15 @@ met, the step in joint space (median, largest) and how many steps were flagged, 
 level how far 1e-6 rad / 1e-6 m of noise on each answer moves ``follow``, also against the
 least joint motion between the two answers' poses (|pinv(J) dx|).
 
+Then paths over and under the base: circles about the base axis, higher (or lower) than
+a4 + a5 + a6 over the base plane, where every answer is level 2's and the nearest points
+form a family (joint 4 under the target, the tip chain vertical, any tip-plane azimuth).
+Each circle is run twice: as shipped (the valid member nearest current, narrowed down in
+azimuth) and as first shipped (the nearest of 72 sampled azimuths and current's own).
+Prints per variant the steps (deg; median, largest), how many exceed 5 degrees and how
+many of those a valid member of a 3,600-azimuth grid would have avoided (nearer current
+than half the step), and the solve time (median, largest).
+
 Then noise: each answer's pose tilted by 1e-6 rad and moved by 1e-6 m, solved again from
 the answer; prints how far ``follow`` moved (rad, largest joint), and its Euclidean motion
 against the least joint motion that follows the pose to first order (|pinv(J) dx|,
@@ -31,6 +40,7 @@ the follower adds nothing to what the arm's kinematics amplify.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 
 import numpy as np
@@ -119,6 +129,11 @@ def main(argv=None) -> None:
                 noise.append((moved, moved_norm / max(need, 1e-12)))
             current = r.follow
     leaving = leaving_paths(d, rng, args.targets)
+    circles = {"as shipped": over_the_base(d, np.random.default_rng(args.seed), args.targets)}
+    with _first_version():
+        circles["nearest of 72 azimuths"] = over_the_base(
+            d, np.random.default_rng(args.seed), args.targets
+        )
     s = np.degrees(np.array(steps))
     print(
         f"{args.targets} paths x {args.steps} targets, {STEP * 1e3:g} mm apart "
@@ -174,6 +189,81 @@ def main(argv=None) -> None:
             f"between the answers' poses: median {np.median(x):.2f}x"
             + (f", {np.median(x[m > 1e-3]):.2f}x over 1e-3" if np.any(m > 1e-3) else "")
         )
+    print(f"over and under the base ({args.targets} circles, 2 mm steps, level 2 throughout):")
+    print(
+        f"  {'variant':<24} {'steps':>6} {'median deg':>11} {'largest deg':>12} "
+        f"{'> 5 deg':>8} {'avoidable':>10} {'solve p50 ms':>13} {'worst ms':>9}"
+    )
+    for name, (st, avoid, ts) in circles.items():
+        print(
+            f"  {name:<24} {len(st):>6} {np.median(st):>11.3f} {st.max():>12.2f} "
+            f"{np.sum(st > np.degrees(JUMP)):>8} {avoid:>10} {1e3 * np.median(ts):>13.2f} "
+            f"{1e3 * ts.max():>9.2f}"
+        )
+
+
+@contextlib.contextmanager
+def _first_version():
+    """Level 2 over the base as first shipped: the nearest of 72 azimuths and current's own."""
+    from handarm.ik import degrade
+
+    kept = degrade._ABOVE_PSI, degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS
+    degrade._ABOVE_PSI = np.linspace(-np.pi, np.pi, 72, endpoint=False)
+    degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS = 0.0, 0
+    try:
+        yield
+    finally:
+        degrade._ABOVE_PSI, degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS = kept
+
+
+def family(design, p, n_psi: int = 3600) -> np.ndarray:
+    """Valid configurations meeting level 2's bound over the base: joint 4 under p, the tip
+    chain vertical, on a grid of tip-plane azimuths (both elbows); numpy on ``is_valid``."""
+    a = design.lengths
+    psi = np.linspace(-np.pi, np.pi, n_psi, endpoint=False)
+    j3x, j3y = p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)
+    with np.errstate(invalid="ignore"):
+        c2 = np.arccos((j3x**2 + j3y**2 - a[1] ** 2 - a[2] ** 2) / (2 * a[1] * a[2]))
+    rows = []
+    for q2 in (c2, -c2):
+        q = np.zeros((n_psi, 6))
+        q[:, 0] = np.arctan2(j3y, j3x) - np.arctan2(a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2))
+        q[:, 0] = np.angle(np.exp(1j * q[:, 0]))
+        q[:, 1], q[:, 2] = q2, np.angle(np.exp(1j * (psi - q[:, 0] - q2)))
+        q[:, 3] = np.copysign(np.pi / 2, p[2])
+        rows.append(q[np.isfinite(q2)])
+    q = np.concatenate(rows)
+    q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]
+    return q[handarm.is_valid(design, q)]
+
+
+def over_the_base(design, rng, n: int):
+    """Circles over and under the base: (steps (deg), avoidable jumps, solve times (s))."""
+    a = design.lengths
+    rt, r2 = float(a[4:].sum()), float(a[2] + a[3])
+    steps, avoidable, times = [], 0, []
+    for k in range(n):
+        rho = rng.uniform(0.2, 0.9) * (a[1] + r2)
+        z = (1 if k % 2 == 0 else -1) * (rt + rng.uniform(0.005, 0.04))
+        e = rng.normal(size=3)
+        e /= np.linalg.norm(e)
+        current = np.zeros(6)
+        for t in np.linspace(0.0, 2.0 * np.pi, int(2.0 * np.pi * rho / STEP)):
+            p = np.array([rho * np.cos(t), rho * np.sin(t), z])
+            start = time.perf_counter()
+            r = ik.solve(design, p, e, current=current)
+            times.append(time.perf_counter() - start)
+            step = float(np.abs(r.follow - current).max())
+            steps.append(np.degrees(step))
+            if step > JUMP:
+                members = family(design, p)
+                if len(members) and (
+                    np.linalg.norm(members - current, axis=1).min()
+                    < 0.5 * np.linalg.norm(r.follow - current)
+                ):
+                    avoidable += 1
+            current = r.follow
+    return np.array(steps), avoidable, np.array(times)
 
 
 def leaving_paths(design, rng, n: int):

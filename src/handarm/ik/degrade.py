@@ -786,13 +786,18 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     return bound, (q if _valid(design, q) else None)
 
 
-#: Tip-plane azimuths tried for a point straight above or below the base's reach.
-_ABOVE_PSI = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+#: Tip-plane azimuths tried for a point straight above or below the base's reach (every
+#: 0.5 deg: members are closed-form and the validity of only the nearest is tested; with 72,
+#: a valid window between samples 5.4 deg from current's was missed and follow jumped 208
+#: deg along a circle over the paper's arm, bench_tracking.py).
+_ABOVE_PSI = np.linspace(-math.pi, math.pi, 720, endpoint=False)
 _ABOVE_STEP = 2.0 * math.pi / len(_ABOVE_PSI)
+#: rad: with current, 1,001 azimuths this far either side of current's are tried too.
+_ABOVE_NEAR = math.radians(5.0)
 
 #: Rounds narrowing the azimuth of the valid member nearest current: each keeps a
-#: sixteenth of the window, so 4 take the 72 azimuths' 10 degrees to about 1e-6 rad.
-_ABOVE_ROUNDS = 4
+#: sixteenth of the window, so 3 take two samples' 1 deg to about 2e-6 rad.
+_ABOVE_ROUNDS = 3
 
 
 def _above_members(design: ArmDesign, p: np.ndarray, psi: np.ndarray, elbow: float) -> np.ndarray:
@@ -835,36 +840,37 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
     p lies above or below the base's reach (within the cylinder of ``_reach_bound``'s disk)
     and out of reach: such a configuration (``_above_members``) meets the bound, so it is
     nearest. They form a family over the tip plane's azimuth psi and the base's elbow.
-    Without current, of those at 72 azimuths (and both elbows) the valid one nearest the
-    zero pose is taken. With current, the valid one nearest current (to about 1e-6 rad of
-    psi): a loop following the answer moves with the target, along the family's edge (a
+    Without current, of those at 720 azimuths (and both elbows) the valid one nearest the
+    zero pose is taken. With current, the valid one nearest current, of those and of 1,001
+    azimuths within 5 degrees of current's own (its elbow), narrowed down to about 2e-6 rad
+    of psi: a loop following the answer moves with the target, along the family's edge (a
     contact, a limit) too, not a sample's spacing at a time.
     """
-    near = np.zeros(6) if current is None else np.asarray(current, dtype=float)
-    psi, elbow = _ABOVE_PSI, 1.0
-    if current is not None:
-        psi, elbow = np.append(float(near[0] + near[1] + near[2]), psi), math.copysign(1.0, near[1])
+    members = functools.partial(_above_members, design, p)
+    if current is None:
+        return _nearest_valid(
+            design, np.vstack([members(_ABOVE_PSI, 1.0), members(_ABOVE_PSI, -1.0)]), np.zeros(6)
+        )
+    near = np.asarray(current, dtype=float)
+    psi0, own = float(near[0] + near[1] + near[2]), math.copysign(1.0, near[1])
+    # near a joint limit or a contact the valid azimuths next to current's may be a sliver
+    # (a tenth of a degree) that the 720 straddle
+    local = psi0 + np.linspace(-_ABOVE_NEAR, _ABOVE_NEAR, 1001)
     best = _nearest_valid(
         design,
-        np.vstack([_above_members(design, p, psi, elbow), _above_members(design, p, psi, -elbow)]),
+        np.vstack([members(local, own), members(_ABOVE_PSI, own), members(_ABOVE_PSI, -own)]),
         near,
     )
-    if best is None or current is None:
-        return best
-    # the member nearest current lies near best (the distance is smooth in psi, its least
-    # between two samples) or near current's own member (its elbow, its psi): where that
-    # one is invalid, at the edge of a contact or a limit, which the samples may straddle
-    psi0, own, elbow = float(psi[0]), math.copysign(1.0, near[1]), math.copysign(1.0, best[1])
-    psi_best = _unwrap(best, psi0)
-    if elbow == own and abs(psi_best - psi0) <= 2.0 * _ABOVE_STEP:
-        windows = [(own, min(psi0, psi_best) - _ABOVE_STEP, max(psi0, psi_best) + _ABOVE_STEP)]
-    else:
-        windows = [(own, psi0 - _ABOVE_STEP, psi0 + _ABOVE_STEP),
-                   (elbow, psi_best - _ABOVE_STEP, psi_best + _ABOVE_STEP)]  # fmt: skip
-    for elbow, lo, hi in windows:
-        found = _nearest_member(design, p, near, elbow, lo, hi)
-        if found is not None and np.linalg.norm(found - near) < np.linalg.norm(best - near):
-            best = found
+    if best is None:
+        return None
+    # the distance is smooth in psi: the nearest lies within a sample of best
+    psi_best = float(best[0] + best[1] + best[2])
+    found = _nearest_member(
+        design, p, near, math.copysign(1.0, best[1]), psi_best - _ABOVE_STEP,
+        psi_best + _ABOVE_STEP,
+    )  # fmt: skip
+    if found is not None and np.linalg.norm(found - near) < np.linalg.norm(best - near):
+        best = found
     return best
 
 
@@ -872,7 +878,7 @@ def _nearest_member(design, p, near, elbow, lo, hi) -> np.ndarray | None:
     """The valid ``_above_members`` (of one elbow) nearest near with psi in [lo, hi], or None.
 
     Each round tests 33 azimuths and narrows the window to two of their spacings about the
-    nearest valid one (to about 1e-6 rad after ``_ABOVE_ROUNDS``).
+    nearest valid one (to about 2e-6 rad after ``_ABOVE_ROUNDS``).
     """
     best = None
     for _ in range(_ABOVE_ROUNDS):
