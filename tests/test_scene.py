@@ -561,3 +561,37 @@ def test_meshed_obstacles_bracket_the_true_shapes():
             assert true.sum() > 20
             assert not (inner.contains(pts) & ~true).any()
             assert not (true & ~outer.contains(pts)).any()
+
+
+def test_over_the_base_in_a_scene_follows_the_nearest_clear_point(design):
+    """Above the base's reach the nearest points are a family (joint 4 under p, the tip
+    chain vertical, any tip-plane azimuth): with an obstacle on joint 3 of current's own
+    member, the answer keeps clear, still meets the bound and moves current no farther
+    than the nearest clear member of a dense grid (less its spacing)."""
+    from tests.ik.test_degrade import _above_family
+
+    a = design.lengths
+    rt = a[4:7].sum()
+    p0 = np.array([0.05, 0.02, rt + 0.02])
+    e = np.array([0.3, -0.2, 0.9]) / np.linalg.norm([0.3, -0.2, 0.9])
+    current = ik.solve(design, p0, e, current=np.zeros(6)).follow
+    checked = 0
+    for step in range(6):
+        p = p0 + [0.003 * step, -0.002 * step, 0.0]
+        psi = current[0] + current[1] + current[2]
+        joint3 = [p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi), 0.0]
+        scene = Scene.empty().with_sphere(joint3, 0.012, name="post")
+        r = ik.solve(design, p, e, scene=scene, clearance=0.001, current=current)
+        assert r.reached_dof == 2
+        assert scene_gaps(design, r.follow, scene, 0.001).min() >= 0
+        assert handarm.is_valid(design, r.follow)
+        family = _above_family(design, p)
+        clear = family[scene_free(design, family, scene, 0.001)]
+        assert len(clear) < len(family)  # the post blocks some
+        if len(clear):
+            checked += 1
+            assert r.position_error == pytest.approx(0.02, abs=1e-12)
+            nearest = np.linalg.norm(clear - current, axis=1).min()
+            assert np.linalg.norm(r.follow - current) <= nearest + np.radians(0.3)
+        current = r.follow
+    assert checked >= 4

@@ -821,16 +821,22 @@ def _above_members(design: ArmDesign, p: np.ndarray, psi: np.ndarray, elbow: flo
 
 
 def _valid_rows(design: ArmDesign, q: np.ndarray) -> np.ndarray:
-    """``_valid`` of each row of q (n, 6); False for rows with NaN or beyond the limits."""
+    """``_valid`` of each row of q (n, 6), in one call per test; False for NaN rows."""
     ok = np.all((q >= design.lower) & (q <= design.upper), axis=1)  # False for NaN
     if not ok.any():
         return ok
-    if design.collision_model == "printed":
-        ok[ok] = collision_free(design, q[ok])
-        if _SCENE.get() is None:
-            return ok
-    for k in np.flatnonzero(ok):
-        ok[k] = _valid(design, q[k])
+    rows = q[ok]
+    valid = (
+        collision_free(design, rows)
+        if design.collision_model == "printed"
+        else is_valid(design, rows)
+    )
+    scene = _SCENE.get()
+    if scene is not None and valid.any():
+        from handarm.scene import scene_free
+
+        valid[valid] = scene_free(design, rows[valid], scene[0], scene[1])
+    ok[ok] = valid
     return ok
 
 
