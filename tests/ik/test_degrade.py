@@ -291,6 +291,32 @@ def test_just_beyond_the_reach_is_reached_only_to_rounding(beyond):
         assert true == pytest.approx(beyond, rel=0.05)
 
 
+def test_level_two_over_the_base_with_e_along_the_aim_keeps_the_nearest_member():
+    """e straight down, p under the base's reach: the nearest member already points at p,
+    so the exact pose it re-aims at (a vertical L, its ranges at one azimuth) may not move
+    current farther. Found by a hostile check on a random design: 163 degrees where the
+    nearest member was 127 away (and flagged family_ended, so the loop took it)."""
+    d = handarm.ArmDesign(
+        link_lengths=(0.03569672805495898, 0.037909468604847396, 0.06885354443565682,
+                      0.025514956528105814, 0.056006031557939234, 0.06371363160870767,
+                      0.031274064401996204),
+        joint_limits=((-0.8328803313642594, 1.3700086144900505),
+                      (-2.3045436017226044, 2.0720058928974563),
+                      (-1.0648029816719216, 1.75524814510478),
+                      (-2.333533515673782, 1.7311895413722387),
+                      (-2.2452930563411333, 3.062023675043226),
+                      (-2.367173922337149, 1.6550516885724846)),
+    )  # fmt: skip
+    p = np.array([0.07398295034784397, -0.013903005853003953, -0.15333087565881418])
+    current = np.array([1.3650635879672062, -1.776882317739578, -1.0566858897463558,
+                        -1.5707963344230342, -1.4901161e-08, 2.2529307e-08])  # fmt: skip
+    r = ik.solve(d, p, [0.0, 0.0, -1.0], current=current)
+    assert r.reached_dof == 2
+    family = _above_family(d, p, 36000)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.1)
+
+
 @pytest.mark.parametrize(
     ("p", "current"),
     [

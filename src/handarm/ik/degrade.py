@@ -966,11 +966,15 @@ def _two_dof(design: ArmDesign, p, e, current, polished=None, stretched=None) ->
     if np.linalg.norm(aim) > 1e-12:
         aim = aim / np.linalg.norm(aim)
         r = _solve_exact(design, p_reached, aim, best_q if current is None else current)
-        # with current, only if its follow stays near (else the polished configuration)
+        # with current, only if its follow stays near (else the polished configuration);
+        # where best_q points at p already (the bound's answers: the stretched arm, the
+        # tip chain vertical under p) it is a solution of that pose, so no farther than it
+        # (a vertical aim's ranges are taken at one azimuth of L, which may not be best_q's)
+        ratio = 1.0 if _angle(e_reached, aim) < 1e-9 else HOLD_RATIO
         held = r.count and (
             current is None
             or np.linalg.norm(r.follow - current)
-            <= HOLD_RATIO * float(np.linalg.norm(best_q - current)) + 1e-6
+            <= ratio * float(np.linalg.norm(best_q - current)) + 1e-6
         )
         if held:
             return dataclasses.replace(
