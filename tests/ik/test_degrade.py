@@ -317,6 +317,20 @@ def test_level_two_over_the_base_with_e_along_the_aim_keeps_the_nearest_member()
     assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.1)
 
 
+def test_level_two_under_the_base_with_the_elbow_straight_tries_both_elbows():
+    """Joint 2 nearly straight (q2 = -3e-4): the members of the other elbow are as near
+    current as its own; the nearest was missed by 0.3 degrees (a hostile check)."""
+    d = handarm.ArmDesign()
+    p = np.array([-0.03462321570379469, 0.10136563324812528, -0.17740387078178174])
+    current = np.array([1.4112607339506127, -0.00031494958643631636, 1.6404534860614586,
+                        -math.pi / 2, 0.0, 0.0])  # fmt: skip
+    r = ik.solve(d, p, [0.0, 0.0, -1.0], current=current)
+    assert r.reached_dof == 2
+    family = _above_family(d, p, 36000)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.05)
+
+
 @pytest.mark.parametrize(
     ("p", "current"),
     [

@@ -848,7 +848,7 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
     nearest. They form a family over the tip plane's azimuth psi and the base's elbow.
     Without current, of those at 720 azimuths (and both elbows) the valid one nearest the
     zero pose is taken. With current, the valid one nearest current, of those and of 1,001
-    azimuths within 5 degrees of current's own (its elbow), narrowed down to about 2e-6 rad
+    azimuths within 5 degrees of current's own (both elbows), narrowed down to about 2e-6 rad
     of psi: a loop following the answer moves with the target, along the family's edge (a
     contact, a limit) too, not a sample's spacing at a time.
     """
@@ -864,7 +864,15 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
     local = psi0 + np.linspace(-_ABOVE_NEAR, _ABOVE_NEAR, 1001)
     best = _nearest_valid(
         design,
-        np.vstack([members(local, own), members(_ABOVE_PSI, own), members(_ABOVE_PSI, -own)]),
+        # both elbows near current's: with the base's elbow nearly straight they meet
+        np.vstack(
+            [
+                members(local, own),
+                members(local, -own),
+                members(_ABOVE_PSI, own),
+                members(_ABOVE_PSI, -own),
+            ]
+        ),  # fmt: skip
         near,
     )
     if best is None:
