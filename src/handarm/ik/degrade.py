@@ -179,21 +179,7 @@ def _pose(design: ArmDesign, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _valid(design: ArmDesign, q) -> bool:
     """Valid under the design's collision model, and clear of the scene if there is one."""
-    q = np.asarray(q, dtype=float)
-    if design.collision_model == "printed" and q.shape == (6,):
-        # is_valid for one configuration without its array checks (q is ours, finite)
-        if not (np.all(q >= design.lower) and np.all(q <= design.upper)):
-            return False
-        if not collision_free(design, q[None, :])[0]:
-            return False
-    elif not is_valid(design, q):
-        return False
-    scene = _SCENE.get()
-    if scene is None:
-        return True
-    from handarm.scene import scene_free
-
-    return bool(scene_free(design, q, scene[0], scene[1]))
+    return bool(_valid_rows(design, np.asarray(q, dtype=float).reshape(1, 6))[0])
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -865,14 +851,7 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
     best = _nearest_valid(
         design,
         # both elbows near current's: with the base's elbow nearly straight they meet
-        np.vstack(
-            [
-                members(local, own),
-                members(local, -own),
-                members(_ABOVE_PSI, own),
-                members(_ABOVE_PSI, -own),
-            ]
-        ),  # fmt: skip
+        np.vstack([members(psi, elbow) for psi in (local, _ABOVE_PSI) for elbow in (own, -own)]),
         near,
     )
     if best is None:
