@@ -325,3 +325,81 @@ def test_a_non_finite_number_never_leaves_solve(paper, monkeypatch, field, bad):
     p, e = handarm.forward(paper, q)
     with pytest.raises(RuntimeError, match="non-finite number"):
         ik.solve(paper, p, e, current=q)
+
+
+def _pinned_configurations(design, rng, n):
+    """Valid configurations with one or two joints exactly at a limit (ranges end there)."""
+    out = []
+    while len(out) < n:
+        q = rng.uniform(design.lower, design.upper, 6)
+        for j in rng.choice(6, rng.integers(1, 3), replace=False):
+            q[j] = design.lower[j] if rng.random() < 0.5 else design.upper[j]
+        if handarm.is_valid(design, q):
+            out.append(q)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_joints_at_their_limits_come_back_within_them(seed):
+    """Every configuration out of solve, solve_batch and follow keeps the limits exactly.
+
+    A range ending where a joint meets its limit had its angle there computed by
+    trigonometry, an ulp or two beyond the limit: is_valid failed on the only configuration
+    of a zero-length range (a hostile check, 2026-11-27), and on follow.
+    """
+    rng = np.random.default_rng(seed)
+    designs = [handarm.ArmDesign()] + [random_design(rng) for _ in range(3)]
+    for design in designs:
+        q = _pinned_configurations(design, rng, 150)
+        p, e = handarm.forward(design, q)
+        b = ik.solve_batch(design, p, e)
+        rows = np.arange(b.solutions.shape[1])[None, :] < b.counts[:, None]
+        sols = b.solutions[rows]
+        assert np.all((sols >= design.lower) & (sols <= design.upper))
+        assert handarm.is_valid(design, sols).all()
+        for k in range(len(q)):
+            r = ik.solve(design, p[k], e[k], current=q[k])
+            assert r.reached_dof == 5
+            for c in [*r.solutions, r.follow]:
+                assert np.all((c >= design.lower) & (c <= design.upper)), (k, c - design.upper)
+                assert handarm.is_valid(design, c), k
+            for br, (lo, hi) in zip(r.branches, r.intervals, strict=True):
+                for u in (lo, hi):
+                    c = ik.configuration_at(design, p[k], e[k], br, u, result=r)
+                    assert np.all((c >= design.lower) & (c <= design.upper)), (k, u)
+
+
+def test_a_zero_length_range_at_a_limit_keeps_it_in_a_scene():
+    """The hostile check's case: follow was 2.2e-16 rad beyond joint 2's upper limit."""
+    from handarm.scene import Scene
+
+    design = handarm.ArmDesign(
+        link_lengths=(0.025138950028617463, 0.03420863039576598, 0.06807646791238381,
+                      0.05492972216386206, 0.02564771853442395, 0.04598761641418843,
+                      0.048743077888450045),
+        joint_limits=((-1.0884475013548176, 2.4930422870793696),
+                      (-0.9758848429006824, 1.6540825079053763),
+                      (-1.9607661597716728, 1.750354453857918),
+                      (-2.1319510972609916, 2.50100952354062),
+                      (-3.034733398423394, 1.3925661471559663),
+                      (-2.282831477339631, 2.3993083033704647)),
+    )  # fmt: skip
+    scene = (
+        Scene.empty()
+        .with_sphere([0.008951885411488603, 0.0669263421838676, 0.0080239411369136],
+                     0.006061149546941331, name="b0")
+        .with_sphere([-0.08280406324508115, -0.034642154225851964, -0.002694350649308273],
+                     0.011950746530424867, name="b1")
+        .with_sphere([0.060003740762369695, -0.04517705175845483, -0.0026188451529271474],
+                     0.009490578372525524, name="b2")
+    )  # fmt: skip
+    current = np.array([
+        0.9513255201677383, 1.6540825079053763, -0.4815699318132387, 2.148560224540722,
+        1.315546904745446e-08, -7.2143557794390745e-09,
+    ])  # fmt: skip
+    r = ik.solve(
+        design, [-0.024313829295841943, 0.035658333239118496, 0.13039164259803115], [0, 0, 1],
+        current=current, scene=scene, clearance=0.001,
+    )  # fmt: skip
+    assert r.reached_dof == 2
+    assert np.all(r.follow <= design.upper) and handarm.is_valid(design, r.follow)

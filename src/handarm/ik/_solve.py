@@ -171,9 +171,10 @@ def solve_target(p, e, psi_vertical, a, lower, upper, out_q, out_br, out_iv, psi
     counted (``mdl[-1]``).
     """
     work = _workspace(lower, upper, mdl[1].shape[0])
-    return _solve_any_azimuth(
-        p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl, False
-    )
+    n = _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, work, mdl, False)
+    for i in range(min(n, out_q.shape[0])):
+        snap_to_limits(out_q[i], lower, upper)
+    return n
 
 
 @nb.njit(**INLINE)
@@ -230,6 +231,26 @@ def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, paper):
         math.atan2(fr[6], fr[5]),
         paper,
     )
+
+
+#: rad: a joint angle this far or less beyond a limit is the limit, rounded (a range that
+#: ends where a joint meets its limit, or a zero-length one there).
+LIMIT_SNAP = 1e-10
+
+
+@nb.njit(**JIT)
+def snap_to_limits(q, lower, upper):
+    """Angles of q (6,) within ``LIMIT_SNAP`` beyond a limit set onto it, in place.
+
+    The range ends are exact, but the angles at them are computed by trigonometry and
+    came out up to a few ulp beyond the limit the range stops at: such a configuration
+    failed ``is_valid`` (a zero-length range's only one, in 1 of the hostile checks).
+    """
+    for k in range(6):
+        if upper[k] < q[k] <= upper[k] + LIMIT_SNAP:
+            q[k] = upper[k]
+        elif lower[k] - LIMIT_SNAP <= q[k] < lower[k]:
+            q[k] = lower[k]
 
 
 @nb.njit(**JIT)
@@ -522,6 +543,8 @@ def solve_many(P, E, psi_vertical, a, lower, upper, out_q, out_br, out_iv, count
                 mdl,
                 False,
             )
+            for r in range(min(max(counts[i], 0), out_q.shape[1])):
+                snap_to_limits(out_q[i, r], lower, upper)
             # pad the unused rows here: the caller's arrays are left uninitialised
             for r in range(max(counts[i], 0), out_q.shape[1]):
                 for c in range(6):

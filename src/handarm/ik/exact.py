@@ -266,6 +266,8 @@ def follow_configuration(
     )  # fmt: skip
     # the midpoint is valid: only nearer candidates are checked, all in one batched call
     near = np.flatnonzero(dists < best_dist)
+    for k in near:  # a range's end at a joint limit: on it, not an ulp beyond
+        K.snap_to_limits(candidates[k], design.lower, design.upper)
     if len(near):
         near = near[is_valid(design, candidates[near])]
     if len(near):
@@ -716,4 +718,5 @@ def configuration_at(
     ok = K.configuration_at_u(p, e, dx, dy, float(u), float(br[1]), float(br[2]), design.lengths, q)
     if not ok:
         raise ValueError(f"u: {u:g} m is out of reach of branch {tuple(int(b) for b in br)}")
+    K.snap_to_limits(q, design.lower, design.upper)  # at a range's end at a limit: on it
     return q

@@ -136,7 +136,9 @@ def solve_in_scene(
             if not good.any():
                 continue  # a merged hair of a range: nothing usable inside
             k = int(np.argmax(np.where(good, gaps, -np.inf)))
-            sols.append(qs[k].copy())
+            sol = qs[k].copy()
+            K.snap_to_limits(sol, design.lower, design.upper)  # a range ending at a limit
+            sols.append(sol)
             brs.append(br)
             ivs.append((r_lo, r_hi))
             cls.append((gaps[ok].min(), gaps[ok].max()))
