@@ -207,13 +207,19 @@ def _first_version():
     """Level 2 over the base as first shipped: the nearest of 72 azimuths and current's own."""
     from handarm.ik import degrade
 
-    kept = degrade._ABOVE_PSI, degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS
-    degrade._ABOVE_PSI = np.linspace(-np.pi, np.pi, 72, endpoint=False)
-    degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS = 0.0, 0
+    def first(design, p, current):
+        psi = np.linspace(-np.pi, np.pi, 72, endpoint=False)
+        if current is not None:
+            psi = np.append(float(current[0] + current[1] + current[2]), psi)
+        q = np.vstack([degrade._above_members(design, p, psi, elbow) for elbow in (1.0, -1.0)])
+        return degrade._nearest_valid(design, q, np.zeros(6) if current is None else current)
+
+    kept = degrade._above_the_disk
+    degrade._above_the_disk = first
     try:
         yield
     finally:
-        degrade._ABOVE_PSI, degrade._ABOVE_NEAR, degrade._ABOVE_ROUNDS = kept
+        degrade._above_the_disk = kept
 
 
 def family(design, p, n_psi: int = 3600) -> np.ndarray:

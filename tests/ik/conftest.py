@@ -5,6 +5,20 @@ import pytest
 
 import handarm
 
+#: A random design of a hostile check (2026-11-27): joint 2's limit bounds a zero-length
+#: range in a scene, and joint 3's a sliver of the family over the base.
+HOSTILE_D3 = dict(
+    link_lengths=(0.025138950028617463, 0.03420863039576598, 0.06807646791238381,
+                  0.05492972216386206, 0.02564771853442395, 0.04598761641418843,
+                  0.048743077888450045),
+    joint_limits=((-1.0884475013548176, 2.4930422870793696),
+                  (-0.9758848429006824, 1.6540825079053763),
+                  (-1.9607661597716728, 1.750354453857918),
+                  (-2.1319510972609916, 2.50100952354062),
+                  (-3.034733398423394, 1.3925661471559663),
+                  (-2.282831477339631, 2.3993083033704647)),
+)  # fmt: skip
+
 
 def random_design(rng):
     """Unequal lengths and asymmetric limits up to +-180 degrees.

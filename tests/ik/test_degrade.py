@@ -2,7 +2,9 @@ import math
 
 import numpy as np
 import pytest
-from tests.ik.conftest import random_design, valid_configurations
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tests.ik.conftest import HOSTILE_D3, random_design, valid_configurations
 
 import handarm
 from handarm import ik
@@ -207,13 +209,15 @@ def test_two_dof_beyond_reach_meets_the_bound_where_the_stretched_arm_can(seed):
     assert met >= 10 and (seed != 0 or (behind >= 3 and above >= 3))
 
 
-def _above_family(design, p, n_psi=3600):
+def _above_family(design, p, n_psi=3600, psi=None):
     """Valid configurations with joint 4 under (or over) p and the tip chain vertical, on a
-    grid of tip-plane azimuths psi and both elbows: above or below the base's reach every
-    one of them is a nearest point of all (``forward`` confirms each reaches (p_x, p_y,
-    +-(a4 + a5 + a6)))."""
+    grid of tip-plane azimuths psi (n_psi over the turn, unless given) and both elbows:
+    above or below the base's reach every one of them is a nearest point of all
+    (``forward`` confirms each reaches (p_x, p_y, +-(a4 + a5 + a6)))."""
     a = design.lengths
-    psi = np.linspace(-np.pi, np.pi, n_psi, endpoint=False)
+    if psi is None:
+        psi = np.linspace(-np.pi, np.pi, n_psi, endpoint=False)
+    n_psi = len(psi)
     # joint 3 one link back from joint 4 along the tip plane; joints 1 and 2 reach it
     j3 = np.stack([p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)], 1)
     rows = []
@@ -357,6 +361,94 @@ def test_level_two_over_the_base_from_beside_a_contact_or_a_limit(p, current):
     nearest = np.linalg.norm(family - current, axis=1).min()
     assert nearest < math.radians(10)
     assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.1)
+
+
+@pytest.mark.parametrize(
+    ("design", "p", "e", "current", "psi_oracle"),
+    [
+        # joint 3 at its limit: the other elbow's valid azimuths a sliver 0.0048 deg wide
+        (HOSTILE_D3, [0.031166361759102482, 0.09112157202024365, -0.132103141544535], [0, 0, -1],
+         [1.7534192802779085, 0.03630717344946224, -1.9607554259226478, -math.pi / 2, 0, 0],
+         -0.1556),
+        # the same on the paper's arm, 0.0033 deg wide
+        ({}, [0.016482966394983107, 0.07212987040087697, -0.15756523649754814], [0, 0, -1],
+         [1.8041349302685017, 0.0422913725718821, -2.356167862991318, -math.pi / 2, 0, 0],
+         -0.5019),
+        # joint 4 1e-9 m inside the rim of the base's reach: the family 0.019 deg wide
+        ({}, [-0.05762643691900767, 0.13848896514783998, 0.15500000000000003], [1, 0, 0],
+         [0.7019558966675836, -2.0798056978900274, 2.356194490192345, 0.19867388276560138,
+          -1.1179326651850483, -2.1896842675454837], 1.9653),
+    ],
+)  # fmt: skip
+def test_level_two_over_the_base_finds_slivers_of_the_family(design, p, e, current, psi_oracle):
+    """Cases a hostile check found (2026-11-27) where the valid members of the family are a
+    sliver narrower than any grid: at a joint limit (found now by bisecting where each joint
+    crosses its limit between samples) and next to the rim of the base's reach (where the
+    samples now spread over the arc the family exists on). The oracle: a window of 40,001
+    azimuths 1e-6 rad apart about the member the check found (psi_oracle, rad)."""
+    d = handarm.ArmDesign(**design)
+    p, current = np.array(p), np.array(current, dtype=float)
+    r = ik.solve(d, p, e, current=current)
+    bound = abs(p[2]) - d.lengths[4:7].sum()
+    assert r.reached_dof == 2
+    assert r.position_error == pytest.approx(bound, abs=1e-12)
+    assert handarm.is_valid(d, r.follow)
+    family = _above_family(d, p, psi=psi_oracle + np.linspace(-0.02, 0.02, 40001))
+    assert len(family)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert np.linalg.norm(r.follow - current) <= nearest + 1e-5
+
+
+def test_on_the_edge_of_the_reach_the_closed_form_keeps_the_nearest_member():
+    """A target 1e-13 m beyond the edge (within rounding of it): only the family meeting the
+    bound reaches it; a polish found another member, and follow jumped 233 degrees where
+    the nearest moved 150 (a hostile check on a random design)."""
+    d = handarm.ArmDesign(
+        link_lengths=(0.07658336633434205, 0.050679653168861694, 0.07857462234246225,
+                      0.024850161433736133, 0.056441349919701775, 0.04258919506263635,
+                      0.06811407241914844),
+        joint_limits=((-1.1245836047217372, 2.8279384583514724),
+                      (-2.0272312741703575, 2.9026590191039263),
+                      (-1.8640377047859684, 1.7500325457518795),
+                      (-2.625892198950768, 3.102871127702595),
+                      (-1.6015422383840354, 3.0656813328487247),
+                      (-2.9681714034159903, 1.1323165957077874)),
+    )  # fmt: skip
+    p = np.array([-0.06987611641986068, 0.03920183274212714, -0.16714461740158656])
+    current = np.array([0.8254084941786128, 0.0, 1.5302918234320786, -0.6989184755305362,
+                        -1.4737517678495626, 1.0683944151701734])  # fmt: skip
+    r = ik.solve(d, p, [0, 0, 1], current=current)
+    assert r.reached_dof in (2, 3)
+    assert np.linalg.norm(handarm.forward(d, r.follow)[0] - p) < 2e-13
+    family = _above_family(d, p, 36000)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.02)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.floats(-0.2, 0.2),
+    st.floats(-0.2, 0.2),
+)
+def test_the_family_over_the_base_exists_on_its_reach_arcs(seed, x, y):
+    """Dense sampling of the tip-plane azimuth: joints 1 and 2 reach joint 3 (|cos q2| <= 1)
+    exactly on ``_reach_arcs``, for random designs."""
+    from handarm.ik.degrade import _reach_arcs
+
+    rng = np.random.default_rng(seed)
+    d = handarm.ArmDesign(link_lengths=rng.uniform(0.02, 0.08, 7))
+    a = d.lengths
+    psi = np.linspace(-np.pi, np.pi, 20001)
+    j3 = np.stack([x - a[3] * np.cos(psi), y - a[3] * np.sin(psi)], 1)
+    c2 = ((j3**2).sum(1) - a[1] ** 2 - a[2] ** 2) / (2 * a[1] * a[2])
+    exists = np.abs(c2) <= 1.0
+    on = np.zeros_like(exists)
+    for lo, hi in _reach_arcs(d, np.array([x, y, 0.3])):
+        turn = np.remainder(psi - lo, 2 * np.pi)
+        on |= turn <= hi - lo
+    margin = np.abs(np.abs(c2) - 1.0) > 1e-9  # away from the arcs' ends (rounding)
+    assert np.array_equal(exists[margin], on[margin])
 
 
 @pytest.mark.parametrize(

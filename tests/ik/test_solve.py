@@ -5,7 +5,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from tests.ik.conftest import generator_branch_and_u, random_design, valid_configurations
+from tests.ik.conftest import (
+    HOSTILE_D3,
+    generator_branch_and_u,
+    random_design,
+    valid_configurations,
+)
 
 import handarm
 from handarm import ik
@@ -373,17 +378,7 @@ def test_a_zero_length_range_at_a_limit_keeps_it_in_a_scene():
     """The hostile check's case: follow was 2.2e-16 rad beyond joint 2's upper limit."""
     from handarm.scene import Scene
 
-    design = handarm.ArmDesign(
-        link_lengths=(0.025138950028617463, 0.03420863039576598, 0.06807646791238381,
-                      0.05492972216386206, 0.02564771853442395, 0.04598761641418843,
-                      0.048743077888450045),
-        joint_limits=((-1.0884475013548176, 2.4930422870793696),
-                      (-0.9758848429006824, 1.6540825079053763),
-                      (-1.9607661597716728, 1.750354453857918),
-                      (-2.1319510972609916, 2.50100952354062),
-                      (-3.034733398423394, 1.3925661471559663),
-                      (-2.282831477339631, 2.3993083033704647)),
-    )  # fmt: skip
+    design = handarm.ArmDesign(**HOSTILE_D3)
     scene = (
         Scene.empty()
         .with_sphere([0.008951885411488603, 0.0669263421838676, 0.0080239411369136],

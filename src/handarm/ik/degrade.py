@@ -60,6 +60,7 @@ import numpy as np
 from handarm.collision import collision_free, kernel_env
 from handarm.design import ArmDesign
 from handarm.ik import exact as S
+from handarm.ik._above import limit_crossings, members
 from handarm.ik._nearest import NEAR_FIRST, NEAR_MORE, polish_each, slide_best, tool_poses
 from handarm.ik._polish import polish_to_point, tool_pose
 from handarm.ik._search import (
@@ -539,9 +540,12 @@ def degrade_target(
 
 def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     bound, stretched = _reach_bound(design, p, current)
-    if bound > _AT_TARGET:
+    if bound > _AT_TARGET or stretched is not None:
         # no configuration comes within bound of p (not even a degenerate pose) and no
-        # direction is solvable there, so levels 4 and 3 have nothing to find
+        # direction is solvable there, so levels 4 and 3 have nothing to find; on the
+        # bound's edge (to rounding) the configurations meeting it are all that reach p,
+        # and the closed form finds the one nearest current (a polish, another: follow
+        # jumped 233 deg where the nearest moved 150, a hostile check of 2026-11-27)
         return _two_dof(design, p, e, current, stretched=stretched)
     # valid configurations that reach p (the stretched arm aimed at p, current and cloud
     # points, polished): one with e's direction is a degenerate exact pose (the straight
@@ -730,7 +734,9 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     """A lower bound on the distance from p of every tool point, and the configuration meeting it.
 
     Returns (bound, q): bound in m (p may be reached where it is at most ``_AT_TARGET``); q
-    the valid configuration meeting it, where the bound proves one nearest, or None.
+    the valid configuration meeting it, where the bound proves one nearest, or None. Within
+    ``_AT_TARGET`` of the bound's edge (either side) q is given too: there p is reached, if
+    at all, only by the configurations that meet the bound.
 
     Every tool point is j4 + (u cos psi, u sin psi, v) with |(u, v)| <= rt = a4 + a5 + a6
     (``handarm.ik._polish``), and j4 lies in the base-plane disk of radius a2 + a3 about joint
@@ -763,27 +769,58 @@ def _reach_bound(design: ArmDesign, p: np.ndarray, current) -> tuple[float, np.n
     vx, vy = p[0] - a[1] * math.cos(q1), p[1] - a[1] * math.sin(q1)
     r = math.hypot(vx, vy)
     bound = math.hypot(max(r - r2, 0.0), p[2]) - rt
-    if bound <= _AT_TARGET:
-        return bound, None  # p may be reached
-    if r <= r2 * (1.0 + 1e-9):
-        return bound, _above_the_disk(design, p, current)
+    if bound <= -_AT_TARGET:
+        return bound, None  # p may be reached, and not only at the edge
+    if r <= r2:
+        above = _above_the_disk(design, p, current)
+        if above is not None or r < r2 * (1.0 - 1e-9):
+            return bound, above
+        # on the disk's rim to rounding, where the family's arcs may be empty by it
     q2 = math.remainder(math.atan2(vy, vx) - q1, 2.0 * math.pi)
-    q = np.array([q1, q2, 0.0, math.atan2(p[2], r - r2), 0.0, 0.0])
+    q = np.array([q1, q2, 0.0, math.atan2(p[2], max(r - r2, 0.0)), 0.0, 0.0])
     return bound, (q if _valid(design, q) else None)
 
 
-#: Tip-plane azimuths tried for a point straight above or below the base's reach (every
-#: 0.5 deg: members are closed-form and the validity of only the nearest is tested; with 72,
-#: a valid window between samples 5.4 deg from current's was missed and follow jumped 208
-#: deg along a circle over the paper's arm, bench_tracking.py).
-_ABOVE_PSI = np.linspace(-math.pi, math.pi, 720, endpoint=False)
-_ABOVE_STEP = 2.0 * math.pi / len(_ABOVE_PSI)
+#: Tip-plane azimuths tried for a point straight above or below the base's reach, spread
+#: over the azimuths where joints 1 and 2 reach joint 3 (``_reach_arcs``; with 72 over the
+#: whole turn, a valid window between samples 5.4 deg from current's was missed and follow
+#: jumped 208 deg along a circle over the paper's arm, bench_tracking.py; with 720 over the
+#: whole turn, a family 0.019 deg wide next to the rim of the base's reach was missed).
+#: Members are closed-form and the validity of only the nearest is tested.
+_ABOVE_SAMPLES = 720
 #: rad: with current, 1,001 azimuths this far either side of current's are tried too.
 _ABOVE_NEAR = math.radians(5.0)
+#: Azimuths either side of the joint-limit crossings kept (``_above._limit_crossings``).
+_ABOVE_CROSSINGS = 256
 
 #: Rounds narrowing the azimuth of the valid member nearest current: each keeps a
-#: sixteenth of the window, so 3 take two samples' 1 deg to about 2e-6 rad.
+#: sixteenth of the window, so 3 take two samples' spacing to about a 2,000th of it.
 _ABOVE_ROUNDS = 3
+
+
+def _reach_arcs(design: ArmDesign, p: np.ndarray) -> list[tuple[float, float]]:
+    """The tip-plane azimuths (arcs lo <= psi <= hi) at which the family reaches joint 3.
+
+    Joint 3 lies a3 back from joint 4 (at p_xy) along the tip plane, at distance d from
+    joint 1 with d^2 = rho^2 + a3^2 - 2 a3 rho cos(psi - phi) (rho, phi: p_xy's length and
+    azimuth); joints 1 and 2 reach it where |a1 - a2| <= d <= a1 + a2, which bounds
+    cos(psi - phi) on both sides: at most two arcs, symmetric about phi.
+    """
+    a = design.lengths
+    rho, phi = math.hypot(p[0], p[1]), math.atan2(p[1], p[0])
+    near, far = (a[1] - a[2]) ** 2, (a[1] + a[2]) ** 2
+    if rho <= 1e-12:  # on the base axis (to rounding): d is a3 at every psi
+        return [(-math.pi, math.pi)] if near <= rho * rho + a[3] ** 2 <= far else []
+    c_far = (rho * rho + a[3] ** 2 - far) / (2.0 * a[3] * rho)  # cos(psi - phi) >= c_far
+    c_near = (rho * rho + a[3] ** 2 - near) / (2.0 * a[3] * rho)  # cos(psi - phi) <= c_near
+    if c_far > 1.0 or c_near < -1.0 or c_far > c_near:
+        return []
+    out, inner = math.acos(max(c_far, -1.0)), math.acos(min(c_near, 1.0))
+    if inner == 0.0:
+        return [(phi - out, phi + out)]
+    if out == math.pi:
+        return [(phi + inner, phi + 2.0 * math.pi - inner)]
+    return [(phi - out, phi - inner), (phi + inner, phi + out)]
 
 
 def _above_members(design: ArmDesign, p: np.ndarray, psi: np.ndarray, elbow: float) -> np.ndarray:
@@ -791,18 +828,11 @@ def _above_members(design: ArmDesign, p: np.ndarray, psi: np.ndarray, elbow: flo
 
     Joint 4 at (p_x, p_y), the tip chain vertical, joints 1 and 2 reaching joint 3 (one link
     back from joint 4 along the tip plane) with the given elbow (the sign of q2). Rows are
-    NaN where joint 3 is out of their reach.
+    NaN where joint 3 is out of their reach (``handarm.ik._above.member``).
     """
-    a = design.lengths
-    j3x, j3y = p[0] - a[3] * np.cos(psi), p[1] - a[3] * np.sin(psi)
-    c2 = (j3x**2 + j3y**2 - a[1] ** 2 - a[2] ** 2) / (2.0 * a[1] * a[2])
-    q2 = elbow * np.arccos(np.where(np.abs(c2) <= 1.0, c2, np.nan))
-    q1 = np.arctan2(j3y, j3x) - np.arctan2(a[2] * np.sin(q2), a[1] + a[2] * np.cos(q2))
-    q = np.zeros((len(psi), 6))
-    q[:, 0] = np.remainder(q1 + math.pi, 2.0 * math.pi) - math.pi
-    q[:, 1] = q2
-    q[:, 2] = np.remainder(psi - q[:, 0] - q2 + math.pi, 2.0 * math.pi) - math.pi
-    q[:, 3] = math.copysign(0.5 * math.pi, p[2])
+    psi = np.ascontiguousarray(psi, dtype=float)
+    q = np.empty((len(psi), 6))
+    members(np.ascontiguousarray(p, dtype=float), design.lengths, psi, float(elbow), q)
     return q
 
 
@@ -832,36 +862,56 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
     p lies above or below the base's reach (within the cylinder of ``_reach_bound``'s disk)
     and out of reach: such a configuration (``_above_members``) meets the bound, so it is
     nearest. They form a family over the tip plane's azimuth psi and the base's elbow.
-    Without current, of those at 720 azimuths (and both elbows) the valid one nearest the
-    zero pose is taken. With current, the valid one nearest current, of those and of 1,001
-    azimuths within 5 degrees of current's own (both elbows), narrowed down to about 2e-6 rad
-    of psi: a loop following the answer moves with the target, along the family's edge (a
-    contact, a limit) too, not a sample's spacing at a time.
+    Candidates, for both elbows: 720 azimuths spread over the arcs where the family exists
+    (``_reach_arcs``: next to the rim of the base's reach they narrow to hundredths of a
+    degree); with current, 1,001 within 5 degrees of current's own; and the two sides of
+    every place between neighbouring candidates where joint 1, 2 or 3 crosses a limit
+    (``_above.limit_crossings``: the valid azimuths there can be a sliver of thousandths
+    of a degree). Of these the valid one nearest current (else the zero pose) is narrowed
+    down between its neighbouring candidates: a loop following the answer moves with the
+    target, along the family's edge (a contact, a limit) too, not a sample's spacing at a
+    time.
     """
-    members = functools.partial(_above_members, design, p)
-    if current is None:
-        return _nearest_valid(
-            design, np.vstack([members(_ABOVE_PSI, 1.0), members(_ABOVE_PSI, -1.0)]), np.zeros(6)
+    arcs = _reach_arcs(design, p)
+    if not arcs:
+        return None
+    total = sum(hi - lo for lo, hi in arcs)
+    grid = [
+        np.linspace(lo, hi, max(2, round(_ABOVE_SAMPLES * (hi - lo) / total))) for lo, hi in arcs
+    ]
+    near = np.zeros(6) if current is None else np.asarray(current, dtype=float)
+    if current is not None:
+        # current's azimuth on the turn of each arc that holds it
+        psi0 = float(near[0] + near[1] + near[2])
+        local = psi0 + np.linspace(-_ABOVE_NEAR, _ABOVE_NEAR, 1001)
+        for lo, hi in arcs:
+            middle = 0.5 * (lo + hi)
+            shifted = local + 2.0 * math.pi * round((middle - psi0) / (2.0 * math.pi))
+            grid.append(shifted[(shifted >= lo) & (shifted <= hi)])
+    target = np.ascontiguousarray(p, dtype=float)
+    rows, psis = [], {}
+    for elbow in (1.0, -1.0):
+        psi = np.unique(np.concatenate(grid))
+        crossings = np.empty(_ABOVE_CROSSINGS)
+        n = limit_crossings(
+            target, design.lengths, design.lower, design.upper, psi, elbow, crossings
         )
-    near = np.asarray(current, dtype=float)
-    psi0, own = float(near[0] + near[1] + near[2]), math.copysign(1.0, near[1])
-    # near a joint limit or a contact the valid azimuths next to current's may be a sliver
-    # (a tenth of a degree) that the 720 straddle
-    local = psi0 + np.linspace(-_ABOVE_NEAR, _ABOVE_NEAR, 1001)
-    best = _nearest_valid(
-        design,
-        # both elbows near current's: with the base's elbow nearly straight they meet
-        np.vstack([members(psi, elbow) for psi in (local, _ABOVE_PSI) for elbow in (own, -own)]),
-        near,
-    )
+        psi = np.unique(np.concatenate([psi, crossings[:n]]))
+        psis[elbow] = psi
+        rows.append(_above_members(design, p, psi, elbow))
+    best = _nearest_valid(design, np.vstack(rows), near)
     if best is None:
         return None
-    # the distance is smooth in psi: the nearest lies within a sample of best
-    psi_best = float(best[0] + best[1] + best[2])
+    # the distance is smooth in psi between candidates: the nearest lies between best's
+    # neighbours
+    elbow = 1.0 if best[1] >= 0.0 else -1.0  # q2 = 0: both elbows' member, one set
+    psi = psis[elbow]
+    k = int(
+        np.argmin(np.abs(np.remainder(psi - _unwrap(best, 0.0) + math.pi, 2.0 * math.pi) - math.pi))
+    )
     found = _nearest_member(
-        design, p, near, math.copysign(1.0, best[1]), psi_best - _ABOVE_STEP,
-        psi_best + _ABOVE_STEP,
-    )  # fmt: skip
+        design, p, near, elbow, psi[max(k - 1, 0)], psi[min(k + 1, len(psi) - 1)]
+    )
     if found is not None and np.linalg.norm(found - near) < np.linalg.norm(best - near):
         best = found
     return best
@@ -871,7 +921,7 @@ def _nearest_member(design, p, near, elbow, lo, hi) -> np.ndarray | None:
     """The valid ``_above_members`` (of one elbow) nearest near with psi in [lo, hi], or None.
 
     Each round tests 33 azimuths and narrows the window to two of their spacings about the
-    nearest valid one (to about 2e-6 rad after ``_ABOVE_ROUNDS``).
+    nearest valid one (to about a 2,000th of the window after ``_ABOVE_ROUNDS``).
     """
     best = None
     for _ in range(_ABOVE_ROUNDS):
@@ -945,8 +995,10 @@ def _two_dof(design: ArmDesign, p, e, current, polished=None, stretched=None) ->
         best_err = float(np.linalg.norm(_pose(design, best_q)[0] - p))
     if best_err < _AT_TARGET:
         # p is reached after all: its poses are a set level 3's search cannot see (the
-        # stretched arm on the reach sphere has one direction, the radial one)
-        return _single_point(design, best_q, p, e, 3, 0.0, current)
+        # stretched arm on the reach sphere has one direction, the radial one), and where
+        # that is e's, the pose is exact (the straight arm)
+        dof = 5 if _angle(_pose(design, best_q)[1], e) < 1e-9 else 3
+        return _single_point(design, best_q, p, e, dof, 0.0, current)
     p_reached, e_reached = _pose(design, best_q)
     # point at the target from there, if that pose has a solution
     aim = p - p_reached

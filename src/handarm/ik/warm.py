@@ -11,6 +11,7 @@ process with a warm one (the kernels' code is loaded from disk), 0.04 s after th
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -126,6 +127,10 @@ def warm_up(
             break
     out = P[0] / max(float(np.linalg.norm(P[0])), 1e-300)
     run(1.2 * reach * out, E[0], q[0])  # beyond the stretched arm: straight to level 2
+    # straight above joint 2 and out of reach: level 2's family over the base (closed form)
+    a, q1 = design.lengths, float(q[0][0])
+    above = float(a[4] + a[5] + a[6]) + 0.1 * reach
+    run(np.array([a[1] * math.cos(q1), a[1] * math.sin(q1), above]), E[0], q[0])
     run(P[0] + 0.02 * out, E[0], q[0], order="angle")
     if scene is not None and len(scene):
         from handarm.scene import scene_free
