@@ -941,11 +941,15 @@ def _nearest_valid(design: ArmDesign, q: np.ndarray, near: np.ndarray) -> np.nda
     """The row of q (n, 6) nearest near that is within the limits and valid, or None."""
     q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]  # drops NaN rows too
     q = q[np.argsort(np.linalg.norm(q - near, axis=1), kind="stable")]
-    for start in range(0, len(q), 8):  # nearest first: most often the first is valid
-        chunk = q[start : start + 8]
+    # nearest first: most often the first is valid; chunks double (8, 16, ...) so that
+    # where none is (behind the base) the thousands of members cost a dozen calls, not 400
+    start, size = 0, 8
+    while start < len(q):
+        chunk = q[start : start + size]
         valid = np.flatnonzero(_valid_rows(design, chunk))
         if len(valid):
             return chunk[valid[0]]
+        start, size = start + size, 2 * size
     return None
 
 
