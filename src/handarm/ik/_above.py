@@ -70,47 +70,43 @@ def _excess(q, j, limit, upper):
 
 
 @nb.njit(**JIT)
-def limit_crossings(p, a, lower, upper, psis, elbow, out):
+def limit_crossings(p, a, lower, upper, psis, rows, elbow, out):
     """Azimuths either side of each limit crossing of joints 1-3 between samples psis.
 
-    psis: increasing azimuths (one elbow). Where joint j's excess over a limit changes sign
-    between neighbouring samples (both in reach, the joint not wrapping between them), the
-    crossing is bisected to about 1e-13 rad and the bracket's two ends go into out, the
-    side within the limit among them. Returns how many azimuths were written (the crossings
-    beyond out's capacity are dropped, the nearest the start first kept).
+    psis: increasing azimuths (one elbow); rows: their ``members`` (NaN out of reach).
+    Where joint j's excess over a limit changes sign between neighbouring samples (both in
+    reach, the joint not wrapping between them), the crossing is bisected to about 1e-13
+    rad and the bracket's two ends go into out, the side within the limit among them.
+    Returns how many azimuths were written (the crossings beyond out's capacity are
+    dropped, the nearest the start first kept).
     """
-    q0 = np.empty(6)
-    q1 = np.empty(6)
     qm = np.empty(6)
     n = 0
-    ok0 = member(p, a, psis[0], elbow, q0)
     for i in range(1, psis.shape[0]):
-        ok1 = member(p, a, psis[i], elbow, q1)
-        if ok0 and ok1:
-            for j in range(3):
-                if abs(q1[j] - q0[j]) > math.pi:
-                    continue  # wrapped between the samples, not a crossing
-                for side in range(2):
-                    limit = upper[j] if side == 1 else lower[j]
-                    g0 = _excess(q0, j, limit, side == 1)
-                    g1 = _excess(q1, j, limit, side == 1)
-                    if (g0 > 0.0) == (g1 > 0.0):
-                        continue
-                    lo, hi, g_lo = psis[i - 1], psis[i], g0
-                    for _ in range(_BISECTIONS):
-                        mid = 0.5 * (lo + hi)
-                        if not member(p, a, mid, elbow, qm):
-                            break
-                        g = _excess(qm, j, limit, side == 1)
-                        if (g > 0.0) == (g_lo > 0.0):
-                            lo, g_lo = mid, g
-                        else:
-                            hi = mid
-                    if n + 2 <= out.shape[0]:
-                        out[n] = lo
-                        out[n + 1] = hi
-                        n += 2
-        for k in range(6):
-            q0[k] = q1[k]
-        ok0 = ok1
+        q0, q1 = rows[i - 1], rows[i]
+        if math.isnan(q0[0]) or math.isnan(q1[0]):
+            continue
+        for j in range(3):
+            if abs(q1[j] - q0[j]) > math.pi:
+                continue  # wrapped between the samples, not a crossing
+            for side in range(2):
+                limit = upper[j] if side == 1 else lower[j]
+                g0 = _excess(q0, j, limit, side == 1)
+                g1 = _excess(q1, j, limit, side == 1)
+                if (g0 > 0.0) == (g1 > 0.0):
+                    continue
+                lo, hi, g_lo = psis[i - 1], psis[i], g0
+                for _ in range(_BISECTIONS):
+                    mid = 0.5 * (lo + hi)
+                    if not member(p, a, mid, elbow, qm):
+                        break
+                    g = _excess(qm, j, limit, side == 1)
+                    if (g > 0.0) == (g_lo > 0.0):
+                        lo, g_lo = mid, g
+                    else:
+                        hi = mid
+                if n + 2 <= out.shape[0]:
+                    out[n] = lo
+                    out[n + 1] = hi
+                    n += 2
     return n

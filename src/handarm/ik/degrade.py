@@ -889,23 +889,23 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
             shifted = local + 2.0 * math.pi * round((middle - psi0) / (2.0 * math.pi))
             grid.append(shifted[(shifted >= lo) & (shifted <= hi)])
     target = np.ascontiguousarray(p, dtype=float)
+    psi = np.unique(np.concatenate(grid))
     rows, psis = [], {}
     for elbow in (1.0, -1.0):
-        psi = np.unique(np.concatenate(grid))
+        members_ = _above_members(design, p, psi, elbow)
         crossings = np.empty(_ABOVE_CROSSINGS)
         n = limit_crossings(
-            target, design.lengths, design.lower, design.upper, psi, elbow, crossings
+            target, design.lengths, design.lower, design.upper, psi, members_, elbow, crossings
         )
-        psi = np.unique(np.concatenate([psi, crossings[:n]]))
-        psis[elbow] = psi
-        rows.append(_above_members(design, p, psi, elbow))
+        rows += [members_, _above_members(design, p, crossings[:n], elbow)]
+        psis[elbow] = crossings[:n]
     best = _nearest_valid(design, np.vstack(rows), near)
     if best is None:
         return None
     # the distance is smooth in psi between candidates: the nearest lies between best's
     # neighbours
     elbow = 1.0 if best[1] >= 0.0 else -1.0  # q2 = 0: both elbows' member, one set
-    psi = psis[elbow]
+    psi = np.sort(np.concatenate([psi, psis[elbow]]))
     k = int(
         np.argmin(np.abs(np.remainder(psi - _unwrap(best, 0.0) + math.pi, 2.0 * math.pi) - math.pi))
     )
@@ -938,12 +938,24 @@ def _nearest_member(design, p, near, elbow, lo, hi) -> np.ndarray | None:
 
 
 def _nearest_valid(design: ArmDesign, q: np.ndarray, near: np.ndarray) -> np.ndarray | None:
-    """The row of q (n, 6) nearest near that is within the limits and valid, or None."""
+    """The row of q (n, 6) nearest near that is within the limits and valid, or None.
+
+    Ties in distance go to the earlier row.
+    """
     q = q[np.all((q >= design.lower) & (q <= design.upper), axis=1)]  # drops NaN rows too
-    q = q[np.argsort(np.linalg.norm(q - near, axis=1), kind="stable")]
-    # nearest first: most often the first is valid; chunks double (8, 16, ...) so that
-    # where none is (behind the base) the thousands of members cost a dozen calls, not 400
-    start, size = 0, 8
+    dist = np.linalg.norm(q - near, axis=1)
+    # nearest first: most often one of the first 8 is valid, found without sorting all
+    first = np.arange(len(q)) if len(q) <= 8 else np.argpartition(dist, 7)[:8]
+    first = first[np.lexsort((first, dist[first]))]
+    valid = np.flatnonzero(_valid_rows(design, q[first]))
+    if len(valid):
+        return q[first[valid[0]]]
+    rest = np.ones(len(q), bool)
+    rest[first] = False
+    q = q[rest][np.argsort(dist[rest], kind="stable")]
+    # chunks double (16, 32, ...): where none is valid (behind the base) the thousands of
+    # members cost a dozen calls, not 400
+    start, size = 0, 16
     while start < len(q):
         chunk = q[start : start + size]
         valid = np.flatnonzero(_valid_rows(design, chunk))
