@@ -425,6 +425,75 @@ def test_on_the_edge_of_the_reach_the_closed_form_keeps_the_nearest_member():
     assert np.linalg.norm(r.follow - current) <= nearest + math.radians(0.02)
 
 
+_DIP_D1 = dict(
+    link_lengths=(0.03879529311654294, 0.043283391717706204, 0.032197016963953315,
+                  0.05414200351434156, 0.06684253245031956, 0.07271488793526705,
+                  0.06289267534923523),
+    joint_limits=((-3.132860600278521, 2.260887492059366),
+                  (-1.721725248979758, 2.064849453125947),
+                  (-2.8027309708581813, -1.7702700671280538),
+                  (-0.8772097352289965, 2.7234741349983858),
+                  (-1.0698176993032968, 2.4710596210901548),
+                  (-1.821379629599072, 2.7739323069522577)),
+)  # fmt: skip
+_DIP_D3 = dict(
+    link_lengths=(0.04332162511670202, 0.02859920813088308, 0.024635179394790232,
+                  0.0670758176079379, 0.06814810239707461, 0.032242230531537006,
+                  0.051529326034298745),
+    joint_limits=((-1.0392258272209194, 1.6217076456277855),
+                  (-2.6891976157717496, 1.836775706356911),
+                  (-1.9150056744706418, 0.8616750484805993),
+                  (-2.4796092668748115, 2.980848016888677),
+                  (-2.1847187313898098, 1.7353852168399022),
+                  (-1.3441280494844687, 1.7951860106905766)),
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("design", "p", "current", "sphere", "psi_oracle"),
+    [
+        # joint 3 dips within its limit between two samples, both outside: 0.03 deg missed
+        (_DIP_D1, [0.10052985294504783, 0.0, 0.2083234499246174],
+         [4.014320875711519e-09, 1.1863776808153181, -1.9098964895272064,
+          1.5625509452172395, -0.03688246587887433, 0.013297678548300287], None, -0.583892),
+        # joint 1 dips within its limit: a sliver 1e-5 rad wide
+        (_DIP_D3, [-0.004753387985200159, -0.11432083549760862, 0.15512931133657287],
+         [-1.0392258270440116, -0.7430414471819297, 0.13962643922249443,
+          1.5222448376228028, -0.048894534735384715, 0.08056643383848888], None, -1.782262),
+        # a contact next to the end of an arc, where the joints move 300 times as far as psi
+        ({}, [0.0981686272042729, -0.041970199734264045, -0.1500180549514037],
+         [-0.7805118544645988, 1.7300780681785777, -1.8978277398979215, -1.1320322436848618,
+          -0.2061070369497703, -0.0034688512125114453],
+         ([0.04228093087295383, -0.02593426802124407, -0.0024464850224880023],
+          0.01294572550758518), -1.600988),
+    ],
+)  # fmt: skip
+def test_level_two_over_the_base_dips_and_arc_ends(design, p, current, sphere, psi_oracle):
+    """A second hostile check (2026-11-28): slivers where a joint dips within its limit with
+    no sign change between samples (now a golden-section search for its least excess), and
+    a contact next to an arc's end, where three rounds of narrowing psi left follow 3.5e-5
+    rad past the nearest (now more rounds while neighbouring members lie over 1e-6 rad
+    apart). The oracle: 40,001 azimuths 1e-8 rad apart about the check's member."""
+    from handarm.scene import Scene, scene_free
+
+    d = handarm.ArmDesign(**design)
+    p, current = np.array(p), np.array(current)
+    kw = {}
+    if sphere is not None:
+        kw = {"scene": Scene.empty().with_sphere(sphere[0], sphere[1], name="s"),
+              "clearance": 0.001}  # fmt: skip
+    r = ik.solve(d, p, [0, 0, math.copysign(1.0, p[2])], current=current, **kw)
+    assert r.reached_dof == 2
+    assert r.position_error == pytest.approx(abs(p[2]) - d.lengths[4:7].sum(), abs=1e-12)
+    family = _above_family(d, p, psi=psi_oracle + np.linspace(-2e-4, 2e-4, 40001))
+    if sphere is not None:
+        family = family[scene_free(d, family, kw["scene"], 0.001)]
+        assert scene_free(d, r.follow[None], kw["scene"], 0.001).all()
+    assert len(family) and handarm.is_valid(d, r.follow)
+    nearest = np.linalg.norm(family - current, axis=1).min()
+    assert np.linalg.norm(r.follow - current) <= nearest + 2e-6
+
+
 @settings(max_examples=60, deadline=None)
 @given(
     st.integers(0, 2**32 - 1),

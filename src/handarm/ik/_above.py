@@ -77,8 +77,11 @@ def limit_crossings(p, a, lower, upper, psis, rows, elbow, out):
     Where joint j's excess over a limit changes sign between neighbouring samples (both in
     reach, the joint not wrapping between them), the crossing is bisected to about 1e-13
     rad and the bracket's two ends go into out, the side within the limit among them.
-    Returns how many azimuths were written (the crossings beyond out's capacity are
-    dropped, the nearest the start first kept).
+    Where it comes within the limit and leaves it again between two samples (a dip, both
+    outside), the least excess is found by golden-section search about the sample between,
+    and the two crossings either side of it are bisected too. Returns how many azimuths
+    were written (the crossings beyond out's capacity are dropped, the nearest the start
+    first kept).
     """
     qm = np.empty(6)
     n = 0
@@ -109,4 +112,66 @@ def limit_crossings(p, a, lower, upper, psis, rows, elbow, out):
                     out[n] = lo
                     out[n + 1] = hi
                     n += 2
+            # a dip: the joint comes within the limit and leaves it again between two
+            # samples, both outside (no sign change): the excess is least near sample i
+            if i + 1 < psis.shape[0] and not math.isnan(rows[i + 1, 0]):
+                q2 = rows[i + 1]
+                if abs(q2[j] - q1[j]) > math.pi:
+                    continue
+                for side in range(2):
+                    limit = upper[j] if side == 1 else lower[j]
+                    g0 = _excess(q0, j, limit, side == 1)
+                    g1 = _excess(q1, j, limit, side == 1)
+                    g2 = _excess(q2, j, limit, side == 1)
+                    if not (g1 > 0.0 and g1 <= g0 and g1 <= g2):
+                        continue
+                    # a smooth least value (a parabola through the three) lies at most a
+                    # quarter of the larger rise below g1: far from the limit, none
+                    if g1 > max(g0 - g1, g2 - g1):
+                        continue
+                    n = _dip(p, a, psis[i - 1], psis[i + 1], elbow, j, limit, side == 1, out, n)
+    return n
+
+
+@nb.njit(**JIT)
+def _dip(p, a, lo, hi, elbow, j, limit, upper, out, n):
+    """Both ends of the sliver where joint j dips within the limit on (lo, hi), into out[n:].
+
+    Golden-section search for the least excess; where it is inside the limit, the two
+    crossings either side are bisected and their brackets appended. Returns the new n.
+    """
+    q = np.empty(6)
+    ratio = 0.5 * (math.sqrt(5.0) - 1.0)
+    x_lo, x_hi = lo, hi
+    for _ in range(_BISECTIONS + 12):
+        x1 = x_hi - ratio * (x_hi - x_lo)
+        x2 = x_lo + ratio * (x_hi - x_lo)
+        if not (member(p, a, x1, elbow, q)):
+            return n
+        g1 = _excess(q, j, limit, upper)
+        if not (member(p, a, x2, elbow, q)):
+            return n
+        g2 = _excess(q, j, limit, upper)
+        if g1 <= 0.0 or g2 <= 0.0:
+            x_lo, x_hi = (x1, x1) if g1 <= 0.0 else (x2, x2)
+            break
+        if g1 < g2:
+            x_hi = x2
+        else:
+            x_lo = x1
+    inside = 0.5 * (x_lo + x_hi)
+    if not member(p, a, inside, elbow, q) or _excess(q, j, limit, upper) > 0.0:
+        return n
+    for outside in (lo, hi):
+        b_in, b_out = inside, outside
+        for _ in range(_BISECTIONS):
+            mid = 0.5 * (b_in + b_out)
+            if member(p, a, mid, elbow, q) and _excess(q, j, limit, upper) <= 0.0:
+                b_in = mid
+            else:
+                b_out = mid
+        if n + 2 <= out.shape[0]:
+            out[n] = b_in
+            out[n + 1] = b_out
+            n += 2
     return n

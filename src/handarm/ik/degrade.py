@@ -796,6 +796,11 @@ _ABOVE_CROSSINGS = 256
 #: Rounds narrowing the azimuth of the valid member nearest current: each keeps a
 #: sixteenth of the window, so 3 take two samples' spacing to about a 2,000th of it.
 _ABOVE_ROUNDS = 3
+#: rad: more rounds, up to ``_ABOVE_ROUNDS_MAX``, while the members of neighbouring azimuths
+#: in the last round lay farther apart than this (a hostile check found answers 3e-5 rad
+#: farther than the nearest next to the end of an arc, after three rounds).
+_ABOVE_JOINT_TOL = 1e-6
+_ABOVE_ROUNDS_MAX = 8
 
 
 def _reach_arcs(design: ArmDesign, p: np.ndarray) -> list[tuple[float, float]]:
@@ -921,19 +926,24 @@ def _nearest_member(design, p, near, elbow, lo, hi) -> np.ndarray | None:
     """The valid ``_above_members`` (of one elbow) nearest near with psi in [lo, hi], or None.
 
     Each round tests 33 azimuths and narrows the window to two of their spacings about the
-    nearest valid one (to about a 2,000th of the window after ``_ABOVE_ROUNDS``).
+    nearest valid one: ``_ABOVE_ROUNDS`` rounds, and more (up to ``_ABOVE_ROUNDS_MAX``)
+    while neighbouring azimuths' members are more than ``_ABOVE_JOINT_TOL`` apart in joint
+    space (next to the end of an arc the joints move hundreds of times as far as psi).
     """
     best = None
-    for _ in range(_ABOVE_ROUNDS):
-        found = _nearest_valid(
-            design, _above_members(design, p, np.linspace(lo, hi, 33), elbow), near
-        )
+    for k in range(_ABOVE_ROUNDS_MAX):
+        rows = _above_members(design, p, np.linspace(lo, hi, 33), elbow)
+        found = _nearest_valid(design, rows, near)
         if found is None:
             break
         if best is None or np.linalg.norm(found - near) < np.linalg.norm(best - near):
             best = found
         middle, spacing = _unwrap(best, 0.5 * (lo + hi)), (hi - lo) / 32.0
         lo, hi = middle - spacing, middle + spacing
+        if k + 1 >= _ABOVE_ROUNDS:
+            steps = np.linalg.norm(np.diff(rows, axis=0), axis=1)
+            if not np.nanmax(steps, initial=0.0) > _ABOVE_JOINT_TOL:
+                break
     return best
 
 
