@@ -98,20 +98,8 @@ def limit_crossings(p, a, lower, upper, psis, rows, elbow, out):
                 g1 = _excess(q1, j, limit, side == 1)
                 if (g0 > 0.0) == (g1 > 0.0):
                     continue
-                lo, hi, g_lo = psis[i - 1], psis[i], g0
-                for _ in range(_BISECTIONS):
-                    mid = 0.5 * (lo + hi)
-                    if not member(p, a, mid, elbow, qm):
-                        break
-                    g = _excess(qm, j, limit, side == 1)
-                    if (g > 0.0) == (g_lo > 0.0):
-                        lo, g_lo = mid, g
-                    else:
-                        hi = mid
-                if n + 2 <= out.shape[0]:
-                    out[n] = lo
-                    out[n + 1] = hi
-                    n += 2
+                inside, outside = (psis[i - 1], psis[i]) if g0 <= 0.0 else (psis[i], psis[i - 1])
+                n = _crossing(p, a, elbow, j, limit, side == 1, inside, outside, qm, out, n)
             # a dip: the joint comes within the limit and leaves it again between two
             # samples, both outside (no sign change): the excess is least near sample i
             if i + 1 < psis.shape[0] and not math.isnan(rows[i + 1, 0]):
@@ -163,15 +151,25 @@ def _dip(p, a, lo, hi, elbow, j, limit, upper, out, n):
     if not member(p, a, inside, elbow, q) or _excess(q, j, limit, upper) > 0.0:
         return n
     for outside in (lo, hi):
-        b_in, b_out = inside, outside
-        for _ in range(_BISECTIONS):
-            mid = 0.5 * (b_in + b_out)
-            if member(p, a, mid, elbow, q) and _excess(q, j, limit, upper) <= 0.0:
-                b_in = mid
-            else:
-                b_out = mid
-        if n + 2 <= out.shape[0]:
-            out[n] = b_in
-            out[n + 1] = b_out
-            n += 2
+        n = _crossing(p, a, elbow, j, limit, upper, inside, outside, q, out, n)
+    return n
+
+
+@nb.njit(**JIT)
+def _crossing(p, a, elbow, j, limit, upper, inside, outside, q, out, n):
+    """Bisect where joint j crosses the limit between psi inside (within) and outside.
+
+    The bracket's two ends, about 1e-13 rad apart, go into out[n:] (if there is room);
+    returns the new n. Out of reach counts as outside.
+    """
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (inside + outside)
+        if member(p, a, mid, elbow, q) and _excess(q, j, limit, upper) <= 0.0:
+            inside = mid
+        else:
+            outside = mid
+    if n + 2 <= out.shape[0]:
+        out[n] = inside
+        out[n + 1] = outside
+        n += 2
     return n

@@ -895,7 +895,7 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
             grid.append(shifted[(shifted >= lo) & (shifted <= hi)])
     target = np.ascontiguousarray(p, dtype=float)
     psi = np.unique(np.concatenate(grid))
-    rows, psis = [], {}
+    rows, crossed = [], {}
     for elbow in (1.0, -1.0):
         members_ = _above_members(design, p, psi, elbow)
         crossings = np.empty(_ABOVE_CROSSINGS)
@@ -903,14 +903,14 @@ def _above_the_disk(design: ArmDesign, p: np.ndarray, current) -> np.ndarray | N
             target, design.lengths, design.lower, design.upper, psi, members_, elbow, crossings
         )
         rows += [members_, _above_members(design, p, crossings[:n], elbow)]
-        psis[elbow] = crossings[:n]
+        crossed[elbow] = crossings[:n]
     best = _nearest_valid(design, np.vstack(rows), near)
     if best is None:
         return None
     # the distance is smooth in psi between candidates: the nearest lies between best's
     # neighbours
     elbow = 1.0 if best[1] >= 0.0 else -1.0  # q2 = 0: both elbows' member, one set
-    psi = np.sort(np.concatenate([psi, psis[elbow]]))
+    psi = np.sort(np.concatenate([psi, crossed[elbow]]))
     k = int(
         np.argmin(np.abs(np.remainder(psi - _unwrap(best, 0.0) + math.pi, 2.0 * math.pi) - math.pi))
     )
