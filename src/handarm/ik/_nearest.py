@@ -21,7 +21,7 @@ import numba as nb
 import numpy as np
 
 from handarm._collide import collides, scratch
-from handarm.ik._common import JIT
+from handarm.ik._common import INLINE, JIT
 from handarm.ik._polish import polish_to_point, tool_point_and_jacobian, tool_pose
 
 #: Restarts of one seed's polish after it ran into a collision.
@@ -122,6 +122,23 @@ def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc
     return _distance(q, target, a, np.empty(3), np.empty((3, 6))), blocked
 
 
+@nb.njit(**INLINE)
+def _first_move(q, f, step, polls, start, stop, target, a, lower, upper, pi, pf, groups, rows,
+                c, sc, trial, trial_p, trial_jac):  # fmt: skip
+    """The first of ``polls[start:stop]`` whose step from q stays valid and nears target.
+
+    Returns (its index, its distance from target), (-1, f) if none; its configuration is
+    left in ``trial`` (tool point and Jacobian in trial_p, trial_jac).
+    """
+    for k in range(start, stop):
+        for j in range(6):
+            trial[j] = min(upper[j], max(lower[j], q[j] + step * polls[k, j]))
+        ft = _distance(trial, target, a, trial_p, trial_jac)
+        if ft < f - 1e-13 and valid_one(trial, a, lower, upper, pi, pf, groups, rows, c, sc):
+            return k, ft
+    return -1, f
+
+
 @nb.njit(**JIT)
 def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     """Pattern search from the valid q (changed in place) to valid configurations nearer target.
@@ -147,6 +164,8 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     last = np.zeros(6)
     has_last = False
     history = np.empty((_HISTORY, 6))  # the configurations before the last moves, a ring
+    g, down = np.empty(6), np.empty(6)
+    draws = np.empty((_RANDOM_POLLS + _GRAZE_DIRS, 6))
     n_moves = 0
     f = _distance(q, target, a, p, jac)
     mark, mark_it = f, 0
@@ -157,7 +176,7 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
             if mark - f < SLIDE_GAIN:
                 break
             mark, mark_it = f, it
-        g = np.zeros(6)
+        g[:] = 0.0
         for j in range(6):
             for k in range(3):
                 g[j] += jac[k, j] * (p[k] - target[k])
@@ -177,47 +196,62 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
         if has_last:
             polls[n] = last
             n += 1
+        descent = -1
         if gn > 0.0:
-            polls[n] = -g / gn
+            for j in range(6):
+                down[j] = -g[j] / gn
+            polls[n] = down
             descent = n
             n += 1
-            null = np.linalg.svd(jac)[2]  # rows 3..5 span the null space
-            for k in range(3, 6):
-                for tilt in _TILTS:
-                    for side in (-1.0, 1.0):
-                        polls[n] = math.cos(tilt) * polls[descent] + side * math.sin(tilt) * null[k]
-                        n += 1
-        for j in range(12):  # single joints: a joint at its limit stays there
-            polls[n] = 0.0
-            polls[n, j % 6] = 1.0 if j < 6 else -1.0
-            n += 1
-        for _ in range(_RANDOM_POLLS):
-            v = np.random.standard_normal(6)  # noqa: NPY002 (numba's per-thread state)
-            polls[n] = v / math.sqrt(np.sum(v * v))
-            n += 1
-        if gn > 0.0:
-            down = -g / gn
-            for _ in range(_GRAZE_DIRS):  # grazing the contact that blocks the descent
-                v = np.random.standard_normal(6)  # noqa: NPY002
-                v -= np.sum(v * down) * down
-                v /= math.sqrt(np.sum(v * v))
-                for tilt in _GRAZES:
-                    polls[n] = math.cos(tilt) * down + math.sin(tilt) * v
-                    n += 1
-        moved = False
-        for k in range(n):
+        # this iteration's random draws, in the order of the polls they make: drawn whether
+        # or not those polls are reached, so the sequence is the same either way
+        n_draws = _RANDOM_POLLS + (_GRAZE_DIRS if gn > 0.0 else 0)
+        for r in range(n_draws):
             for j in range(6):
-                trial[j] = min(upper[j], max(lower[j], q[j] + step * polls[k, j]))
-            ft = _distance(trial, target, a, trial_p, trial_jac)
-            if ft < f - 1e-13 and valid_one(trial, a, lower, upper, pi, pf, groups, rows, c, sc):
-                history[n_moves % _HISTORY] = q
-                n_moves += 1
-                q[:] = trial
-                p[:], jac[:] = trial_p, trial_jac
-                f = ft
-                last[:] = polls[k]
-                has_last = moved = True
-                break
+                draws[r, j] = np.random.standard_normal()  # noqa: NPY002
+        # the polls that need no more than the gradient first: a move among them (a
+        # pattern move along a contact, mostly) spares the rest, the null space's SVD
+        # among them
+        k_move, ft = _first_move(q, f, step, polls, 0, n, target, a, lower, upper, pi, pf, groups,
+                             rows, c, sc, trial, trial_p, trial_jac)  # fmt: skip
+        if k_move < 0:
+            start = n
+            if gn > 0.0:
+                null = np.linalg.svd(jac)[2]  # rows 3..5 span the null space
+                for k in range(3, 6):
+                    for tilt in _TILTS:
+                        for side in (-1.0, 1.0):
+                            polls[n] = (
+                                math.cos(tilt) * polls[descent] + side * math.sin(tilt) * null[k]
+                            )
+                            n += 1
+            for j in range(12):  # single joints: a joint at its limit stays there
+                polls[n] = 0.0
+                polls[n, j % 6] = 1.0 if j < 6 else -1.0
+                n += 1
+            for r in range(_RANDOM_POLLS):
+                v = draws[r]
+                polls[n] = v / math.sqrt(np.sum(v * v))
+                n += 1
+            if gn > 0.0:
+                for r in range(_GRAZE_DIRS):  # grazing the contact that blocks the descent
+                    v = draws[_RANDOM_POLLS + r].copy()
+                    v -= np.sum(v * down) * down
+                    v /= math.sqrt(np.sum(v * v))
+                    for tilt in _GRAZES:
+                        polls[n] = math.cos(tilt) * down + math.sin(tilt) * v
+                        n += 1
+            k_move, ft = _first_move(q, f, step, polls, start, n, target, a, lower, upper, pi, pf,
+                                 groups, rows, c, sc, trial, trial_p, trial_jac)  # fmt: skip
+        moved = k_move >= 0
+        if moved:
+            history[n_moves % _HISTORY] = q
+            n_moves += 1
+            q[:] = trial
+            p[:], jac[:] = trial_p, trial_jac
+            f = ft
+            last[:] = polls[k_move]
+            has_last = True
         step = min(2.0 * step, SLIDE_STEP_MAX) if moved else 0.5 * step
     return f, step
 
