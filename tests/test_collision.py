@@ -412,3 +412,43 @@ def test_stadium_cover_holds_its_polygon_and_is_near_the_least(seed):
     assert abs(along[1]) <= 1e-9 * abs(along[0])
     np.testing.assert_allclose((0.5 * (seg[0] + seg[1]) - 3.0) @ turn.T, [4.5, 1.0], atol=1e-9)
     assert area(seg, r) <= 1.001 * _brute_cover_area(rect)
+
+
+@pytest.mark.parametrize("name", list(DESIGNS))
+def test_a_hint_orders_the_collision_tests_without_changing_the_verdict(name):
+    """``collides_hinted`` (the level-2 slide's validity test) tests first the groups that
+    blocked the last configuration. Along random walks in joint space, each call taking the
+    hint the last one left as a slide does, its verdict is ``collision_free``'s; after a hit
+    the hint is a single group, and that group hits on its own."""
+    from handarm import _collide
+
+    design = DESIGNS[name]
+    pi, pf, groups, _, rows, c = collision.kernel_env(design)
+    frames, xy, stamp, coef, motion = _collide.scratch(len(pi))
+    rng = np.random.default_rng(7)
+    lo, hi = np.asarray(design.lower), np.asarray(design.upper)
+    walks = [
+        np.clip(rng.uniform(lo, hi) + np.cumsum(rng.normal(0, 0.05, (100, 6)), 0), lo, hi)
+        for _ in range(20)
+    ]
+    q = np.concatenate(walks)
+    free = collision.collision_free(design, q)
+    hint = np.zeros(1, np.int64)
+    hits = 0
+    for k in range(len(q)):
+        hit = _collide.collides_hinted(
+            q[k], design.lengths, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, hint
+        )
+        assert hit == (not free[k]), k
+        if hit:
+            hits += 1
+            g = int(hint[0])
+            assert g > 0 and g & (g - 1) == 0, g  # one group's bit
+            _collide.place_frames(q[k], design.lengths, 0.0, frames)
+            _collide.new_pose(stamp)
+            alone, _ = _collide.groups_status(
+                g, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
+            )
+            assert alone
+    # the walks meet contacts often, and leave them: both verdicts were exercised
+    assert 50 < hits < len(q) - 50, hits

@@ -484,8 +484,9 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
     are within ``grow`` of where they are placed; the bounding pieces hold the pair's, so
     only their spheres are tested again), else
     ``unsure``, the mask of groups where some pair is in contact with its pieces grown but not
-    shrunk; the other groups are free. With nothing moving this is the model
-    itself. One function for every group: numba counts a reference for every array
+    shrunk; the other groups are free (on a hit, the second value is the bit of the group
+    that hit: ``collides_hinted`` tests it first next time). With nothing moving this is the
+    model itself. One function for every group: numba counts a reference for every array
     argument of every call, which would cost more than the geometry.
     """
     moving = motion[0] >= 0.0
@@ -556,10 +557,10 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
                 bi, bj = groups[g, 0], groups[g, 1]
                 gbi, gbj = _moves(xy, bi, col), _moves(xy, bj, col)
                 if single or (gbi == 0.0 and gbj == 0.0):
-                    return True, 0
+                    return True, 1 << g
                 if not _apart(xy[bi, 4], xy[bi, 5], xy[bi, 6], pf[bi, 7] - gbi,
                               xy[bj, 4], xy[bj, 5], xy[bj, 6], pf[bj, 7] - gbj + c):  # fmt: skip
-                    return True, 0
+                    return True, 1 << g
             g_unsure = True
         if g_unsure:
             unsure |= 1 << g
@@ -603,6 +604,31 @@ def collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion):
     new_pose(stamp)
     mask = (1 << groups.shape[0]) - 1
     hit, _ = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
+    return hit
+
+
+@nb.njit(**JIT)
+def collides_hinted(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, hint):
+    """``collides``, testing first the groups in ``hint[0]`` (a mask), the last that hit.
+
+    The same answer: whether any group hits does not depend on the order they are tested
+    in. A search that creeps along a contact (``handarm.ik._nearest.slide``) asks about
+    configurations the same pair blocks, over and over; that pair first, the others are
+    never placed. On a hit ``hint[0]`` becomes the bit of the group that hit.
+    """
+    place_frames(q, a, 0.0, frames)
+    new_pose(stamp)
+    every = (1 << groups.shape[0]) - 1
+    first = hint[0] & every
+    if first:
+        hit, _ = groups_status(first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
+        if hit:
+            return True
+    hit, which = groups_status(
+        every & ~first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
+    )
+    if hit:
+        hint[0] = which
     return hit
 
 
