@@ -95,6 +95,8 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     d = handarm.ArmDesign()
+    # every kernel a loop meets loads (or, after a change, compiles) before any timing
+    ik.warm_up(d, batch=False)
     steps, unforced, forced, times, noise = [], 0, 0, [], []
     flagged, flagged_jumps, noise_flagged = 0, 0, 0
     levels = {}
