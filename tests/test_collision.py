@@ -416,7 +416,7 @@ def test_stadium_cover_holds_its_polygon_and_is_near_the_least(seed):
 
 @pytest.mark.parametrize("name", list(DESIGNS))
 def test_a_hint_orders_the_collision_tests_without_changing_the_verdict(name):
-    """``collides_hinted`` (the level-2 slide's validity test) tests first the groups that
+    """``collides`` (in the level-2 slide, its validity test) tests first the group that
     blocked the last configuration. Along random walks in joint space, each call taking the
     hint the last one left as a slide does, its verdict is ``collision_free``'s; after a hit
     the hint is a single group, and that group hits on its own."""
@@ -433,16 +433,16 @@ def test_a_hint_orders_the_collision_tests_without_changing_the_verdict(name):
     ]
     q = np.concatenate(walks)
     free = collision.collision_free(design, q)
-    hint = np.zeros(1, np.int64)
+    hint = 0
     hits = 0
     for k in range(len(q)):
-        hit = _collide.collides_hinted(
+        hit, which = _collide.collides(
             q[k], design.lengths, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, hint
         )
         assert hit == (not free[k]), k
         if hit:
             hits += 1
-            g = int(hint[0])
+            hint = g = int(which)
             assert g > 0 and g & (g - 1) == 0, g  # one group's bit
             _collide.place_frames(q[k], design.lengths, 0.0, frames)
             _collide.new_pose(stamp)

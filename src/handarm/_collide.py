@@ -485,7 +485,7 @@ def groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
     only their spheres are tested again), else
     ``unsure``, the mask of groups where some pair is in contact with its pieces grown but not
     shrunk; the other groups are free (on a hit, the second value is the bit of the group
-    that hit: ``collides_hinted`` tests it first next time). With nothing moving this is the
+    that hit: ``collides`` can test it first next time). With nothing moving this is the
     model itself. One function for every group: numba counts a reference for every array
     argument of every call, which would cost more than the geometry.
     """
@@ -598,38 +598,23 @@ def colliding_link_pairs(
 
 
 @nb.njit(**JIT)
-def collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion):
-    """Whether any link pair collides at q (stops at the first)."""
-    place_frames(q, a, 0.0, frames)
-    new_pose(stamp)
-    mask = (1 << groups.shape[0]) - 1
-    hit, _ = groups_status(mask, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
-    return hit
+def collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, first):
+    """Whether any link pair collides at q: (hit, the bit of the group that hit, else 0).
 
-
-@nb.njit(**JIT)
-def collides_hinted(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, hint):
-    """``collides``, testing first the groups in ``hint[0]`` (a mask), the last that hit.
-
-    The same answer: whether any group hits does not depend on the order they are tested
-    in. A search that creeps along a contact (``handarm.ik._nearest.slide``) asks about
-    configurations the same pair blocks, over and over; that pair first, the others are
-    never placed. On a hit ``hint[0]`` becomes the bit of the group that hit.
+    The groups in the mask ``first`` are tested before the others, and the first hit ends
+    the test; whether some group hits does not depend on the order. A search that creeps
+    along a contact (``handarm.ik._nearest.slide``) asks about configurations that the same
+    pair blocks, over and over: with that group first, the others are never placed.
     """
     place_frames(q, a, 0.0, frames)
     new_pose(stamp)
     every = (1 << groups.shape[0]) - 1
-    first = hint[0] & every
+    first &= every
     if first:
-        hit, _ = groups_status(first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
+        hit, which = groups_status(first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
         if hit:
-            return True
-    hit, which = groups_status(
-        every & ~first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c
-    )
-    if hit:
-        hint[0] = which
-    return hit
+            return True, which
+    return groups_status(every & ~first, frames, stamp, xy, pi, pf, groups, rows, coef, motion, c)
 
 
 @nb.njit(parallel=True, **JIT)
@@ -667,4 +652,5 @@ def free_rows(Q, a, pi, pf, groups, rows, c, out, start, stop):
     """out[i] = no link pair collides at Q[i], for rows start..stop, on this thread."""
     frames, xy, stamp, coef, motion = scratch(pi.shape[0])
     for i in range(start, stop):
-        out[i] = not collides(Q[i], a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion)
+        hit, _ = collides(Q[i], a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, 0)
+        out[i] = not hit

@@ -20,7 +20,7 @@ import math
 import numba as nb
 import numpy as np
 
-from handarm._collide import collides, collides_hinted, scratch
+from handarm._collide import collides, scratch
 from handarm.ik._common import INLINE, JIT
 from handarm.ik._polish import polish_to_point, tool_point_and_jacobian, tool_pose
 
@@ -78,7 +78,8 @@ def valid_one(q, a, lower, upper, pi, pf, groups, rows, c, sc):
         if not lower[j] <= q[j] <= upper[j]:
             return False
     frames, xy, stamp, coef, motion = sc
-    return not collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion)
+    hit, _ = collides(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, 0)
+    return not hit
 
 
 @nb.njit(**JIT)
@@ -123,34 +124,29 @@ def polish_valid(q0, target, a, lower, upper, steps, pi, pf, groups, rows, c, sc
 
 
 @nb.njit(**INLINE)
-def _valid_hinted(q, a, lower, upper, pi, pf, groups, rows, c, sc, hint):
-    """``valid_one``, the collision groups in ``hint[0]`` tested first (``collides_hinted``)."""
-    for j in range(6):
-        if not lower[j] <= q[j] <= upper[j]:
-            return False
-    frames, xy, stamp, coef, motion = sc
-    return not collides_hinted(q, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion,
-                               hint)  # fmt: skip
-
-
-@nb.njit(**INLINE)
 def _first_move(q, f, step, polls, start, stop, target, a, lower, upper, pi, pf, groups, rows,
                 c, sc, trial, trial_p, trial_jac, hint):  # fmt: skip
     """The first of ``polls[start:stop]`` whose step from q stays valid and nears target.
 
-    Returns (its index, its distance from target), (-1, f) if none; its configuration is
-    left in ``trial`` (tool point and Jacobian in trial_p, trial_jac). ``hint``: the
-    collision groups that blocked the last poll, tested first (``_valid_hinted``).
+    Returns (its index or -1, its distance from target or f, the collision group that
+    blocked the last poll tested); its configuration is left in ``trial`` (tool point and
+    Jacobian in trial_p, trial_jac). ``hint``: the group that blocked the poll before,
+    tested first (``handarm._collide.collides``). The steps are clamped to the limits, so
+    only collisions are tested.
     """
+    frames, xy, stamp, coef, motion = sc
     for k in range(start, stop):
         for j in range(6):
             trial[j] = min(upper[j], max(lower[j], q[j] + step * polls[k, j]))
         ft = _distance(trial, target, a, trial_p, trial_jac)
-        if ft < f - 1e-13 and _valid_hinted(
-            trial, a, lower, upper, pi, pf, groups, rows, c, sc, hint
-        ):
-            return k, ft
-    return -1, f
+        if ft < f - 1e-13:
+            hit, which = collides(
+                trial, a, pi, pf, groups, rows, c, frames, xy, stamp, coef, motion, hint
+            )
+            if not hit:
+                return k, ft, hint
+            hint = which
+    return -1, f, hint
 
 
 @nb.njit(**JIT)
@@ -180,7 +176,7 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
     history = np.empty((_HISTORY, 6))  # the configurations before the last moves, a ring
     g, down = np.empty(6), np.empty(6)
     draws = np.empty((_RANDOM_POLLS + _GRAZE_DIRS, 6))
-    hint = np.zeros(1, np.int64)  # the collision groups that blocked the last poll
+    hint = 0  # the collision group that blocked the last poll
     n_moves = 0
     f = _distance(q, target, a, p, jac)
     mark, mark_it = f, 0
@@ -227,8 +223,10 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
         # the polls that need no more than the gradient first: a move among them (a
         # pattern move along a contact, mostly) spares the rest, the null space's SVD
         # among them
-        k_move, ft = _first_move(q, f, step, polls, 0, n, target, a, lower, upper, pi, pf, groups,
-                             rows, c, sc, trial, trial_p, trial_jac, hint)  # fmt: skip
+        k_move, ft, hint = _first_move(
+            q, f, step, polls, 0, n, target, a, lower, upper, pi, pf, groups, rows, c, sc, trial,
+            trial_p, trial_jac, hint,
+        )  # fmt: skip
         if k_move < 0:
             start = n
             if gn > 0.0:
@@ -256,8 +254,10 @@ def slide(q, target, a, lower, upper, pi, pf, groups, rows, c, sc, iters, step):
                     for tilt in _GRAZES:
                         polls[n] = math.cos(tilt) * down + math.sin(tilt) * v
                         n += 1
-            k_move, ft = _first_move(q, f, step, polls, start, n, target, a, lower, upper, pi, pf,
-                                 groups, rows, c, sc, trial, trial_p, trial_jac, hint)  # fmt: skip
+            k_move, ft, hint = _first_move(
+                q, f, step, polls, start, n, target, a, lower, upper, pi, pf, groups, rows, c, sc,
+                trial, trial_p, trial_jac, hint,
+            )  # fmt: skip
         moved = k_move >= 0
         if moved:
             history[n_moves % _HISTORY] = q
