@@ -657,11 +657,9 @@ def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
 def _start_seeds(design: ArmDesign, p: np.ndarray, current) -> list[np.ndarray]:
     """The stretched arm aimed at p, and current, each clipped to the limits."""
     lo, hi = design.lower, design.upper
+    q = (math.atan2(p[1], p[0]), 0.0, 0.0, math.atan2(p[2], math.hypot(p[0], p[1])), 0.0, 0.0)
     # clipped with min and max, not np.clip: a level-4 answer spent 4 % of its time here
-    q1 = min(max(math.atan2(p[1], p[0]), float(lo[0])), float(hi[0]))
-    q4 = min(max(math.atan2(p[2], math.hypot(p[0], p[1])), float(lo[3])), float(hi[3]))
-    q = [q1, 0.0, 0.0, q4, 0.0, 0.0]
-    seeds = [np.array([min(max(q[k], float(lo[k])), float(hi[k])) for k in range(6)])]
+    seeds = [np.array([min(max(x, float(lo[k])), float(hi[k])) for k, x in enumerate(q)])]
     if current is not None:
         seeds.append(np.clip(current, lo, hi))
     return seeds
