@@ -182,6 +182,73 @@ def test_level4_near_the_stretched_arm_matches_a_fine_circle_oracle(paper):
     assert checked == 12 and found >= 4, (checked, found)
 
 
+def targets_next_to_limits(design, n, seed):
+    """Level-4 and level-3 targets by configurations with one to three joints within
+    0.0001-3 degrees of a limit (where solvable directions narrow), e turned 0.01-10 degrees
+    off their direction or random; with p deeper inside than level 4's seed gate."""
+    from handarm.ik import degrade
+
+    rng = np.random.default_rng(seed)
+    lo, hi = design.lower, design.upper
+    deep = -degrade._NEAR_REACH * float(np.sum(design.lengths))
+    P, E = [], []
+    while len(P) < n:
+        q = rng.uniform(lo, hi)
+        for j in rng.choice(6, size=rng.integers(1, 4), replace=False):
+            off = math.radians(10 ** rng.uniform(-4, 0.5))
+            q[j] = hi[j] - off if rng.random() < 0.5 else lo[j] + off
+        if not handarm.is_valid(design, q):
+            continue
+        p, d = handarm.forward(design, q)
+        if rng.random() < 0.6:
+            axis = np.cross(d, rng.normal(size=3))
+            axis /= np.linalg.norm(axis)
+            t = math.radians(10 ** rng.uniform(-2, 1))
+            e = d * math.cos(t) + np.cross(axis, d) * math.sin(t)
+        else:
+            e = rng.normal(size=3)
+            e /= np.linalg.norm(e)
+        if solvable(design, p, e[None])[0] or degrade._reach_bound(design, p, None)[0] > deep:
+            continue
+        P.append(p)
+        E.append(e)
+    return np.array(P), np.array(E)
+
+
+def test_level4_next_to_joint_limits_matches_dense_circle_oracle(paper):
+    """Deep inside the reach level 4 searches its circles alone, without the seed
+    projections (``degrade._NEAR_REACH``); next to joint limits, where the solvable
+    directions narrow, it still matches the dense oracle."""
+    P, E = targets_next_to_limits(paper, 10, seed=21)
+    levels = check_level4_against_oracle(paper, P, E, 0.05)
+    assert levels.count(4) >= 6, levels
+
+
+def test_level4_seed_gate_keeps_the_answer_of_the_seeded_search(paper):
+    """Deep inside the reach the seeds' projections onto the circles would not have found a
+    nearer level-4 direction: the answer is the one of the circles and the projections of
+    every polished configuration that reaches p (the search the gate skips)."""
+    from handarm.ik import degrade
+
+    P, E = targets_next_to_limits(paper, 40, seed=22)
+    compared = 0
+    for p, e in zip(P, E, strict=True):
+        r = ik.solve(paper, p, e)
+        reaching = degrade._configs_reaching(degrade._polished(paper, p, None))
+        seeds = handarm.forward(paper, reaching)[1]
+        assert not (angle(seeds, e) < 1e-9).any()  # no degenerate exact pose skipped
+        full = degrade._choose(
+            paper, p, e, degrade._circle_candidates(paper, p, e, None, seeds=seeds), 4, None
+        )
+        if full is None:
+            assert r.reached_dof < 4
+            continue
+        compared += 1
+        assert r.reached_dof == 4
+        assert r.direction_error <= full.direction_error + math.radians(0.01)
+    assert compared >= 30, compared
+
+
 @pytest.mark.slow
 def test_level4_matches_dense_circle_oracle_many(paper):
     # about 3 s a target (an 18,000-direction oracle and a degraded solve): CI's hour budget
