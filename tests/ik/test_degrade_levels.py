@@ -51,6 +51,19 @@ def kept(e, v):
     return same_plane or abs(e[2] - v[2]) < 1e-8
 
 
+def check_level4_beats_witness(design, p, e, witness):
+    """Level 4, within 0.01 deg of a direction checked here to be solvable and to keep one
+    of e's angles."""
+    p, e, w = (np.asarray(v, float) for v in (p, e, witness))
+    e, w = e / np.linalg.norm(e), w / np.linalg.norm(w)
+    assert solvable(design, p, w[None])[0] and kept(e, w)
+    r = ik.solve(design, p, e)
+    assert r.reached_dof == 4
+    check_pose(design, r, p)
+    assert kept(e, r.achieved_direction)
+    assert r.direction_error <= angle(w, e) + math.radians(0.01)
+
+
 def level4_targets(design, n, seed):
     rng = np.random.default_rng(seed)
     q = valid_configurations(design, rng, 8 * n)
@@ -126,14 +139,79 @@ LEVEL4_SMALL_CAPS = [
 def test_level4_finds_an_arc_in_a_small_cap_near_the_reach(paper, p, e, witness):
     """Directions of valid configurations that reach p, projected onto the circles, find
     the arc (its witness checked solvable here, count_solutions)."""
-    p, e, w = (np.asarray(v, float) for v in (p, e, witness))
-    e, w = e / np.linalg.norm(e), w / np.linalg.norm(w)
-    assert solvable(paper, p, w[None])[0] and kept(e, w)
-    r = ik.solve(paper, p, e)
-    assert r.reached_dof == 4
-    check_pose(paper, r, p)
-    assert kept(e, r.achieved_direction)
-    assert r.direction_error <= angle(w, e) + math.radians(0.01)
+    check_level4_beats_witness(paper, p, e, witness)
+
+
+#: (design, p, e, a solvable direction keeping e's yaw or pitch) from a hostile check of a
+#: level 4 that skipped the seeds' projections deeper than 1 % of the arm's length inside
+#: the reach (2026-11-29): on random designs the circles' grid alone answered 0.78 and 0.67
+#: rad off where these directions were 1e-5 and 3e-3 rad off, on the paper's arm 0.039 deg
+#: where 0.0053 deg was solvable (joints at their limits bound the workspace there). The
+#: projections are needed deep inside too.
+LEVEL4_DEEP_PROJECTIONS = [
+    (
+        dict(
+            link_lengths=(
+                0.06853847342275407,
+                0.053580368871344694,
+                0.07835556246498597,
+                0.06995986625773223,
+                0.05634251487789983,
+                0.03370966651784447,
+                0.07012555950361023,
+            ),
+            joint_limits=(
+                (-0.8721670543484626, 2.6919478124858243),
+                (-2.2691024175511374, 1.1785045050386862),
+                (-2.1368874310258463, 2.885853070361178),
+                (-1.800574514045717, 1.1810049689357862),
+                (-1.5728671201709183, 0.8031003348174304),
+                (-2.6930796085354536, 1.882907294379584),
+            ),
+            collision_model="paper",
+        ),
+        [-0.0204251632488548, -0.04725093336904764, 0.04556015186661799],
+        [-0.8060638895705504, 0.2032760673355525, -0.5558235748679496],
+        [-0.8060615391204384, 0.20328538750191238, -0.5558235748679496],
+    ),
+    (
+        dict(
+            link_lengths=(
+                0.05972528364192789,
+                0.04409539020226512,
+                0.06406148317279271,
+                0.03698739233182066,
+                0.07033820066767078,
+                0.020329017797736274,
+                0.0573759382659763,
+            ),
+            joint_limits=(
+                (-1.8549879634068305, 1.1932506999733794),
+                (-1.5865686185595307, 1.0340313142297333),
+                (-2.844882082368311, 0.8383694713229681),
+                (-2.189196279635466, 1.9794471340338287),
+                (-2.2365957095062465, 2.294665516538878),
+                (-2.2320685902963264, 2.2954683892789234),
+            ),
+            collision_model="printed",
+        ),
+        [-0.16162482607311793, 0.10229942761176285, -0.08114474126462606],
+        [-0.7675401062229804, 0.06156370482632087, -0.6380376913531628],
+        [-0.7677840743224025, 0.05844244715630783, -0.6380376913531627],
+    ),
+    (
+        # the paper's arm: joints 2, 3 and 5 at their limits; 0.039 deg without projections
+        {},
+        [0.08624447646894742, -0.04631421857838717, 0.052849843083555684],
+        [0.12908609571471819, -0.0344927302056509, 0.9910333150081742],
+        [0.12906218043234163, -0.03458210702023192, 0.9910333150081742],
+    ),
+]
+
+
+@pytest.mark.parametrize(("kwargs", "p", "e", "witness"), LEVEL4_DEEP_PROJECTIONS)
+def test_level4_deep_inside_still_finds_what_only_the_projections_find(kwargs, p, e, witness):
+    check_level4_beats_witness(handarm.ArmDesign(**kwargs), p, e, witness)
 
 
 def test_level4_near_the_stretched_arm_matches_a_fine_circle_oracle(paper):
@@ -183,14 +261,11 @@ def test_level4_near_the_stretched_arm_matches_a_fine_circle_oracle(paper):
 
 
 def targets_next_to_limits(design, n, seed):
-    """Level-4 and level-3 targets by configurations with one to three joints within
+    """Targets without an exact solution by configurations with one to three joints within
     0.0001-3 degrees of a limit (where solvable directions narrow), e turned 0.01-10 degrees
-    off their direction or random; with p deeper inside than level 4's seed gate."""
-    from handarm.ik import degrade
-
+    off their direction or random."""
     rng = np.random.default_rng(seed)
     lo, hi = design.lower, design.upper
-    deep = -degrade._NEAR_REACH * float(np.sum(design.lengths))
     P, E = [], []
     while len(P) < n:
         q = rng.uniform(lo, hi)
@@ -208,45 +283,18 @@ def targets_next_to_limits(design, n, seed):
         else:
             e = rng.normal(size=3)
             e /= np.linalg.norm(e)
-        if solvable(design, p, e[None])[0] or degrade._reach_bound(design, p, None)[0] > deep:
-            continue
-        P.append(p)
-        E.append(e)
+        if not solvable(design, p, e[None])[0]:
+            P.append(p)
+            E.append(e)
     return np.array(P), np.array(E)
 
 
 def test_level4_next_to_joint_limits_matches_dense_circle_oracle(paper):
-    """Deep inside the reach level 4 searches its circles alone, without the seed
-    projections (``degrade._NEAR_REACH``); next to joint limits, where the solvable
-    directions narrow, it still matches the dense oracle."""
+    """Next to joint limits, where the solvable directions narrow, level 4 matches the
+    dense oracle."""
     P, E = targets_next_to_limits(paper, 10, seed=21)
     levels = check_level4_against_oracle(paper, P, E, 0.05)
     assert levels.count(4) >= 6, levels
-
-
-def test_level4_seed_gate_keeps_the_answer_of_the_seeded_search(paper):
-    """Deep inside the reach the seeds' projections onto the circles would not have found a
-    nearer level-4 direction: the answer is the one of the circles and the projections of
-    every polished configuration that reaches p (the search the gate skips)."""
-    from handarm.ik import degrade
-
-    P, E = targets_next_to_limits(paper, 40, seed=22)
-    compared = 0
-    for p, e in zip(P, E, strict=True):
-        r = ik.solve(paper, p, e)
-        reaching = degrade._configs_reaching(degrade._polished(paper, p, None))
-        seeds = handarm.forward(paper, reaching)[1]
-        assert not (angle(seeds, e) < 1e-9).any()  # no degenerate exact pose skipped
-        full = degrade._choose(
-            paper, p, e, degrade._circle_candidates(paper, p, e, None, seeds=seeds), 4, None
-        )
-        if full is None:
-            assert r.reached_dof < 4
-            continue
-        compared += 1
-        assert r.reached_dof == 4
-        assert r.direction_error <= full.direction_error + math.radians(0.01)
-    assert compared >= 30, compared
 
 
 @pytest.mark.slow

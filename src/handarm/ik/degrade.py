@@ -33,8 +33,8 @@ run to a coarse ring first, and only those that did not meet an earlier one go o
 ``ANGLE_TOL`` (``handarm.ik._search.refine_directions``). Level 4's
 grid tests each direction with the joint limits widened by ``_SLIVER_WIDEN`` first, and
 scans runs of directions solvable only so 32 times finer (arcs narrower than the grid,
-where a joint sits at its limit); near the reach sphere (``_NEAR_REACH``) it also projects
-the directions of those configurations onto its circles (``circle_projections``).
+where a joint sits at its limit); it also projects the directions of those configurations
+onto its circles (``circle_projections``).
 
 With ``current`` (a control loop), answers within ``HOLD_ANGLE`` (or ``HOLD_DISTANCE`` at
 level 2) of the best found are ties, and the one nearest current wins (``_choose``): sensor
@@ -103,15 +103,6 @@ _SEEDS = 32
 #: m: a tool point this near the target is the target (rounding of the kinematics), and a
 #: target is out of reach where ``_reach_bound`` puts every tool point farther than this
 _AT_TARGET = 1e-12
-#: Level 4 (paper order, no scene) polishes seeds and projects their directions onto its
-#: circles only for p within this fraction of the arm's length (sum of the link lengths) of
-#: the reach bound (``_reach_bound``), or where the circles alone find nothing. Near the
-#: stretched arm the solvable directions shrink to caps a circle may cross between its
-#: grid's directions; on the paper's arm the projections changed an answer only for p
-#: within 0.11 mm of the bound (0.04 % of its length), and deeper inside, next to joint
-#: limits too, never (tests/ik/test_degrade_levels.py, the level-4 seed gate). Polishing
-#: was 40 % of a level-4 answer's median.
-_NEAR_REACH = 0.01
 _STARTS = 3  # level 3 starts from this many sphere samples and as many seed directions
 _SAME_DIRECTION = 1e-3  # rad: seed directions closer than this start one search
 _PATTERN_ROUNDS = 300  # rings of one pattern search, at most (a narrow sliver can creep on)
@@ -498,13 +489,14 @@ def _choose(design, p, e, candidates, dof, current) -> IKResult | None:
     return dataclasses.replace(r, reached_dof=dof, direction_error=err, achieved_direction=v.copy())
 
 
-def _circles(design, p, e, current, prune=True, stats=None) -> tuple:
-    """Level 4's circle search: (directions found, circles searched, e's yaw, e's pitch).
+def _circle_candidates(design, p, e, current, prune=True, stats=None, seeds=()) -> list[np.ndarray]:
+    """Level 4: nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle).
 
-    The nearest solvable directions keeping yaw (pitch circle) or pitch (yaw circle). With
-    ``prune`` only the candidates that can be the nearest to e (see ``_nearest_on_circles``),
-    else the nearest on each side of each circle. ``stats`` gets the number of grid
-    directions tested.
+    With ``prune`` only the candidates that can be the nearest to e (see
+    ``_nearest_on_circles``), else the nearest on each side of each circle. ``stats`` gets
+    the number of grid directions tested. ``seeds``: directions of valid configurations that
+    reach p, projected onto the circles (``handarm.ik._search.circle_projections``: the
+    small caps near the reach sphere).
     """
     pitch, yaw = _pitch_yaw(e)
     if math.hypot(e[0], e[1]) < KEEP_TOL:  # vertical e: its "yaw" is L's azimuth
@@ -520,19 +512,6 @@ def _circles(design, p, e, current, prune=True, stats=None) -> tuple:
     if tip and math.cos(pitch) > KEEP_TOL:  # a vertical e has no pitch-keeping circle
         kinds.append(YAW_CIRCLE)
     found = _nearest_on_circles(design, p, yaw, pitch, kinds, prune, stats)
-    return found, kinds, yaw, pitch
-
-
-def _circle_candidates(
-    design, p, e, current, prune=True, stats=None, seeds=(), circles=None
-) -> list[np.ndarray]:
-    """Level 4: the circles' directions and ``seeds`` projected onto the circles.
-
-    The circles' directions are ``_circles``'s, or ``circles`` if already searched.
-    ``seeds``: directions of valid configurations that reach p, projected onto the circles
-    (``handarm.ik._search.circle_projections``: the small caps near the reach sphere).
-    """
-    found, kinds, yaw, pitch = circles or _circles(design, p, e, current, prune, stats)
     # called even with no seed or circle (it returns at once): whatever compiled the grid's
     # kernel for a design and scene compiles this one too (``warm_up``)
     seeds = np.asarray(seeds, float).reshape(-1, 3)
@@ -579,33 +558,18 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
         # and the closed form finds the one nearest current (a polish, another: follow
         # jumped 233 deg where the nearest moved 150, a hostile check of 2026-11-27)
         return _two_dof(design, p, e, current, stretched=stretched)
-    circles = None
-    if (
-        order == "paper"
-        and _SCENE.get() is None
-        and bound < -_NEAR_REACH * float(np.sum(design.lengths))
-    ):
-        # deep inside the reach the circles alone: the cloud's seeds below serve small caps
-        # of solvable directions next to the reach sphere (``_NEAR_REACH``); the stretched
-        # arm and current still say whether they are a degenerate exact pose (current on a
-        # single-point range at two joint limits, say)
-        exact, _ = _exact_seed(design, p, e, current, _polished(design, p, current, False))
-        if exact is not None:
-            return exact
-        circles = _circles(design, p, e, current)
-        result = _choose(design, p, e, circles[0], 4, current)
-        if result is not None:
-            return result
     # valid configurations that reach p (the stretched arm aimed at p, current and cloud
     # points, polished): one with e's direction is a degenerate exact pose (the straight
     # arm); level 3 starts from their directions, and level 4 projects them onto its circles
     # (small caps of solvable directions near the reach)
     polished = _polished(design, p, current)
-    exact, seeds = _exact_seed(design, p, e, current, polished)
-    if exact is not None:
-        return exact
+    reaching = _configs_reaching(polished)
+    seeds = tool_poses(reaching, design.lengths)[:, 3:6]  # (k, 3), not a list: no copies
+    exact = np.flatnonzero(_angle(seeds, e) < 1e-9)
+    if len(exact):
+        return _single_point(design, reaching[exact[0]], p, e, 5, 0.0, current)
     if order == "paper":
-        candidates = _circle_candidates(design, p, e, current, seeds=seeds, circles=circles)
+        candidates = _circle_candidates(design, p, e, current, seeds=seeds)
         result = _choose(design, p, e, candidates, 4, current)
         if result is not None:
             return result
@@ -617,19 +581,6 @@ def _degrade(design: ArmDesign, p, e, current, order: str) -> IKResult:
     if result is None:
         result = _two_dof(design, p, e, current, polished)
     return result
-
-
-def _exact_seed(design, p, e, current, polished) -> tuple[IKResult | None, np.ndarray]:
-    """The first ``polished`` seed that reaches (p, e) as a single point, and their directions.
-
-    Returns (the single-point result or None, the directions (k, 3) of the seeds reaching p).
-    """
-    reaching = _configs_reaching(polished)
-    dirs = tool_poses(reaching, design.lengths)[:, 3:6]  # an array, not a list: no copies
-    exact = np.flatnonzero(_angle(dirs, e) < 1e-9)
-    if len(exact):
-        return _single_point(design, reaching[exact[0]], p, e, 5, 0.0, current), dirs
-    return None, dirs
 
 
 #: Cloud configurations the seed by seed path (a scene, the paper's model) tests for
@@ -731,31 +682,27 @@ def _seeds(design: ArmDesign, p: np.ndarray, current) -> list:
     return seeds
 
 
-def _polished(design: ArmDesign, p: np.ndarray, current, cloud: bool = True):
+def _polished(design: ArmDesign, p: np.ndarray, current):
     """Each seed (``_seeds``) polished towards p: (configurations (k, 6), distances (k,), cut).
 
     Invalid seeds have distance inf. Under the printed-link model with no scene one
     compiled call does it all (``handarm.ik._nearest``), and ``cut`` (k,) says which polish
-    a collision cut short (see ``_slid``); else seed by seed, and ``cut`` is None. Without
-    ``cloud`` only the stretched arm and current (``_start_seeds``), in the same order.
+    a collision cut short (see ``_slid``); else seed by seed, and ``cut`` is None.
     """
     target = np.ascontiguousarray(p, dtype=float)
     if design.collision_model == "printed" and _SCENE.get() is None:
         seeds = np.ascontiguousarray(_start_seeds(design, p, current), dtype=float)
         cloud_q = _position_cloud(design)[0]
-        n_cloud = min(_SEEDS, len(cloud_q)) if cloud else 0
+        n_cloud = min(_SEEDS, len(cloud_q))
         out_q = np.zeros((len(seeds) + n_cloud, 6))
         out_err = np.full(len(seeds) + n_cloud, np.inf)
         blocked = np.zeros(len(seeds) + n_cloud, np.bool_)
         pi, pf, groups, _, rows, c = kernel_env(design)
         env = (target, design.lengths, design.lower, design.upper, _POLISH_STEPS, pi, pf,
                groups, rows, c)  # fmt: skip
-        if cloud:
-            tree = _cloud_tree(design)
-            k = min(NEAR_FIRST * n_cloud, len(cloud_q))
-            near = np.atleast_1d(tree.query(target, k)[1]).astype(np.int64)
-        else:
-            k, near = len(cloud_q), np.empty(0, np.int64)
+        tree = _cloud_tree(design)
+        k = min(NEAR_FIRST * n_cloud, len(cloud_q))
+        near = np.atleast_1d(tree.query(target, k)[1]).astype(np.int64)
         known = _cloud_validity(design)
         n = polish_each(seeds, cloud_q, known, near, n_cloud, *env, out_q, out_err, blocked)
         while n < len(seeds) + n_cloud and k < len(cloud_q):
@@ -767,8 +714,7 @@ def _polished(design: ArmDesign, p: np.ndarray, current, cloud: bool = True):
                 out_err[n:], blocked[n:],
             )  # fmt: skip
         return out_q[:n], out_err[:n], blocked[:n]
-    starts = _seeds(design, p, current) if cloud else _start_seeds(design, p, current)
-    qs = [_polish(design, q0, p) for q0 in starts if cloud or _valid(design, q0)]
+    qs = [_polish(design, q0, p) for q0 in _seeds(design, p, current)]
     errs = [float(np.linalg.norm(_pose(design, q)[0] - p)) for q in qs]
     return np.array(qs).reshape(-1, 6), np.array(errs), None
 
