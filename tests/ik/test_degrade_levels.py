@@ -64,6 +64,13 @@ def check_level4_beats_witness(design, p, e, witness):
     assert r.direction_error <= angle(w, e) + math.radians(0.01)
 
 
+def turned(d, v, t):
+    """Unit d turned by t rad about the axis across d and v."""
+    axis = np.cross(d, v)
+    axis /= np.linalg.norm(axis)
+    return d * math.cos(t) + np.cross(axis, d) * math.sin(t)
+
+
 def level4_targets(design, n, seed):
     rng = np.random.default_rng(seed)
     q = valid_configurations(design, rng, 8 * n)
@@ -228,10 +235,7 @@ def test_level4_near_the_stretched_arm_matches_a_fine_circle_oracle(paper):
     for p, d in zip(P, D, strict=True):
         if checked == 12:
             break
-        axis = np.cross(d, rng.normal(size=3))
-        axis /= np.linalg.norm(axis)
-        turn = math.radians(rng.uniform(0.05, 0.6))
-        e = d * math.cos(turn) + np.cross(axis, d) * math.sin(turn)
+        e = turned(d, rng.normal(size=3), math.radians(rng.uniform(0.05, 0.6)))
         if solvable(paper, p, e[None])[0]:
             continue
         checked += 1
@@ -276,10 +280,7 @@ def targets_next_to_limits(design, n, seed):
             continue
         p, d = handarm.forward(design, q)
         if rng.random() < 0.6:
-            axis = np.cross(d, rng.normal(size=3))
-            axis /= np.linalg.norm(axis)
-            t = math.radians(10 ** rng.uniform(-2, 1))
-            e = d * math.cos(t) + np.cross(axis, d) * math.sin(t)
+            e = turned(d, rng.normal(size=3), math.radians(10 ** rng.uniform(-2, 1)))
         else:
             e = rng.normal(size=3)
             e /= np.linalg.norm(e)
