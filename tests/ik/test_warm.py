@@ -64,6 +64,8 @@ for i in range(len(q)):
     ik.solve(d, P[i], [2e-4, -1e-4, -1.0], current)
     if i < 2:  # over the base and out of reach (level 2's closed-form family)
         ik.solve(d, [0.02 * (i + 1), 0.01, 0.3], E[i], current)
+        # over the base axis, far out of reach: no closed form, level 2 slides its seeds
+        ik.solve(d, [0.01 * i, -0.005, 0.46], E[i], current)
     if i < 4:
         ik.solve(d, P[i], E[i], current, scene=scene, clearance=0.004, degrade=False)
         ik.solve(d, P[i] + 0.03 * out, E[i], current, scene=scene, clearance=0.004)

@@ -131,6 +131,10 @@ def warm_up(
     a, q1 = design.lengths, float(q[0][0])
     above = float(a[4] + a[5] + a[6]) + 0.1 * reach
     run(np.array([a[1] * math.cos(q1), a[1] * math.sin(q1), above]), E[0], q[0])
+    # straight above the base axis and out of reach: no closed form, so level 2 polishes its
+    # seeds and slides those a contact cut short (its kernel compiled inside a loop took 16 s
+    # on one level-2 step of benchmarks/bench_ik.py with the cache emptied)
+    run(np.array([0.0, 0.0, above + 0.4 * reach]), E[0], q[0])
     run(P[0] + 0.02 * out, E[0], q[0], order="angle")
     if scene is not None and len(scene):
         from handarm.scene import scene_free
