@@ -2,6 +2,7 @@
 
 import io
 import json
+import re
 import socket
 import sys
 import time
@@ -459,6 +460,9 @@ def test_cli_follow_from_stdin_ends_at_the_last_target(design, tmp_path, capsys,
         _, err_bad = capsys.readouterr()
     assert code == 0, err
     assert out.startswith("followed ") and "Hz achieved" in out
+    # the warm-up (minutes on a fresh install) is announced before it, timed after it
+    assert err.startswith("handarm bridge follow: preparing the IK kernels before torque")
+    assert re.search(r"kernels prepared in \d+\.\d s before torque on\)", out)
     # the start pose is far from the first target: the approach was slowed, and said so
     assert "periods ran below the speed limit (from 0.25 of it, back up over 0.75 s)" in out
     assert handarm.is_valid(design, poses).all()

@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -283,6 +284,13 @@ def cmd_follow(args: argparse.Namespace) -> int:
     if not args.rate > 0:
         raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
     source = open_source(args.source)
+    # the warm-up compiles for minutes on a fresh install, silently but for this line
+    print(
+        "handarm bridge follow: preparing the IK kernels before torque goes on (minutes on a "
+        "fresh install, about a second once numba's cache holds them)",
+        file=sys.stderr,
+        flush=True,
+    )
     with _bus(args, design) as bus:
         stats = follow(
             bus,
@@ -297,7 +305,8 @@ def cmd_follow(args: argparse.Namespace) -> int:
         )
     print(
         f"followed {stats['targets']} targets in {stats['periods']} periods "
-        f"({stats['rate']:.1f} Hz achieved)"
+        f"({stats['rate']:.1f} Hz achieved; kernels prepared in {stats['warm_up_s']:.1f} s "
+        "before torque on)"
     )
     if stats["slowed_periods"]:
         print(
