@@ -620,11 +620,13 @@ def _cloud_validity(design: ArmDesign) -> np.ndarray:
 def _cloud_tree(design: ArmDesign):
     """A k-d tree of the cloud's tool points: the nearest of a point in 30 us, not 90.
 
-    It takes about 9 ms to build, once per design.
+    It takes about 6 ms to build, once per design: split at the middle of each cell, not at
+    the median (``balanced_tree=False``), which took 8 ms and queried no faster (the same
+    neighbours, 38-40 us for the nearest 128, measured on the paper's arm).
     """
     from scipy.spatial import cKDTree  # not at import: most uses of the IK never degrade
 
-    return cKDTree(_position_cloud(design)[1])
+    return cKDTree(_position_cloud(design)[1], balanced_tree=False)
 
 
 def _polish(design: ArmDesign, q0: np.ndarray, p: np.ndarray) -> np.ndarray:
