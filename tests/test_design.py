@@ -149,6 +149,11 @@ def test_designs_are_hashable_values(design):
         ({"servo_ids": [1, 2, 3, 4, 5, 6.0]}, r"servo_ids\[5\]: expected an integer, got float"),
         ({"servo_model": "XL-320"}, r"servo_model: unknown model 'XL-320'"),
         ({"baud_rate": 0}, r"baud_rate: 0 is not a rate the servo and the Dynamixel SDK share"),
+        # a rate of the servo's table that the SDK's PortHandler cannot open
+        (
+            {"baud_rate": 200_000},
+            r"baud_rate: 200000 is not a rate the servo and the Dynamixel SDK share",
+        ),
         ({"name": ""}, r"name: expected a non-empty string"),
         (
             {"routing_signs": [[1, 0, 0, 0, 0, 0]] * 6},

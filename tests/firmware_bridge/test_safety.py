@@ -311,6 +311,34 @@ def test_duplicate_ids_wrong_baud_scan_and_setup(design):
         assert servo.get("id") == 4 and servo.get("baud_rate") == 1
 
 
+def test_shared_bauds_are_the_servo_rates_the_installed_sdk_opens():
+    """``BAUD_VALUES`` against the SDK's own list: a scan tried 200,000 bit/s and stopped."""
+    from dynamixel_sdk import PortHandler
+
+    from handarm.firmware_bridge.mx64 import BAUD_VALUES, SDK_BAUDS, SERVO_BAUD_REGISTER
+
+    port = PortHandler("/dev/null")  # not opened: getCFlagBaud only looks at the number
+    opens = {b for b in (*SDK_BAUDS, *SERVO_BAUD_REGISTER) if port.getCFlagBaud(b) > 0}
+    assert opens == set(SDK_BAUDS)
+    assert set(BAUD_VALUES) == set(SERVO_BAUD_REGISTER) & opens
+    assert {200_000, 250_000, 400_000, 2_250_000}.isdisjoint(BAUD_VALUES)
+    assert all(BAUD_VALUES[b] == SERVO_BAUD_REGISTER[b] for b in BAUD_VALUES)
+
+
+def test_scan_and_setup_at_every_rate_find_a_servo_off_factory_settings(design, capsys):
+    """No ``bauds``: every shared rate is tried (a servo at 1 Mbit/s, ID 2, is found)."""
+    with EmulatedBus(ids=[2], bauds={2: 1_000_000}) as emu:
+        found = B.scan(emu.port, None, range(0, 3), 30)
+        assert [(f["id"], f["baud"]) for f in found] == [(2, 1_000_000)]
+        assert main(["bridge", "scan", "--port", emu.port, "--ids", "0-2", "--timeout", "30"]) == 0
+        out, err = capsys.readouterr()
+        assert "1000000" in out and "error" not in err
+        result = B.setup_servo(emu.port, design, 5, None, range(0, 3), 30)
+        assert result == {"id": 5, "baud": 1_000_000, "was": {"id": 2, "baud": 1_000_000}}
+    with EmulatedBus(ids=[1], bauds={1: 200_000}) as emu:  # set so by another tool
+        assert B.scan(emu.port, None, range(0, 2), 30) == []
+
+
 def test_follow_loop_streams_valid_limited_steps(design, tmp_path):
     from handarm.firmware_bridge.follow import TargetSource, follow
     from handarm.firmware_bridge.motion import MotionLimits

@@ -236,7 +236,10 @@ def _bauds(values):
 
     for b in values or ():
         if b not in BAUD_VALUES:
-            raise UsageError(f"--baud: {b} is not an MX-64 rate; choose from {sorted(BAUD_VALUES)}")
+            raise UsageError(
+                f"--baud: {b} is not a rate the MX-64 and the SDK share; choose from "
+                f"{sorted(BAUD_VALUES)}"
+            )
     return values or None
 
 

@@ -23,10 +23,10 @@ from collections.abc import Iterable, Mapping
 
 from handarm.firmware_bridge.mx64 import (
     ADDR,
-    BAUD_VALUES,
     EEPROM_END,
     MODEL_NUMBER,
     MULTI_TURN_LIMIT,
+    SERVO_BAUD_REGISTER,
     TICKS_PER_REV,
     from_unsigned16,
 )
@@ -48,8 +48,11 @@ BROADCAST = 0xFE
 ERR_ANGLE, ERR_RANGE, ERR_CHECKSUM, ERR_INSTRUCTION = 0x02, 0x08, 0x10, 0x40
 ERR_OVERHEAT, ERR_OVERLOAD = 0x04, 0x20
 _SPEC = SERVOS["MX-64T"]  # factory defaults come from the one servo specification
-_REGISTER_BAUD = {v: k for k, v in BAUD_VALUES.items()}
-_TERMIOS_BAUD = {getattr(termios, f"B{b}"): b for b in BAUD_VALUES if hasattr(termios, f"B{b}")}
+# a servo may hold any rate of its table (set by another tool), the host only opens shared ones
+_REGISTER_BAUD = {v: k for k, v in SERVO_BAUD_REGISTER.items()}
+_TERMIOS_BAUD = {
+    getattr(termios, f"B{b}"): b for b in SERVO_BAUD_REGISTER if hasattr(termios, f"B{b}")
+}
 _TABLE_SIZE = 74
 _READ_ONLY = set(range(0, 3)) | set(range(36, 47)) | {50, 51}
 
@@ -198,8 +201,9 @@ class EmulatedBus:
     duplicates : iterable of int
         IDs two servos answer to (both reply, as two servos on one bus would).
     bauds : mapping, optional
-        Bit rate per ID (default 1,000,000, the design's); a servo answers only when the
-        host's port runs at its rate.
+        Bit rate per ID, any of the servo's table (``SERVO_BAUD_REGISTER``; default
+        1,000,000, the design's); a servo answers only when the host's port runs at its
+        rate, so one set to a rate the SDK cannot open (200,000) never answers.
     reply_level : {"new", "old"}
         Which Status Return Level decides whether a WRITE of that register is answered: the
         one it sets ("new", the default) or the one it replaces ("old"). The control table
@@ -235,7 +239,7 @@ class EmulatedBus:
                 i,
                 models.get(i, MODEL_NUMBER),
                 positions.get(i, 2048),
-                BAUD_VALUES[bauds.get(i, 1_000_000)],
+                SERVO_BAUD_REGISTER[bauds.get(i, 1_000_000)],
             )
             for i in ids
         }

@@ -21,6 +21,8 @@ __all__ = [
     "MONITOR_ADDR",
     "MONITOR_SIZE",
     "BAUD_VALUES",
+    "SDK_BAUDS",
+    "SERVO_BAUD_REGISTER",
     "to_unsigned16",
     "from_unsigned16",
     "baud_register",
@@ -83,8 +85,9 @@ ERROR_BITS = {
 #: Error bits that stop a move (the servo's Shutdown default, 36, uses the same two).
 STOP_BITS = 0x04 | 0x20  # addresses below this persist across power cycles
 
-#: Baud Rate register values for the rates the SDK's PortHandler accepts.
-BAUD_VALUES = {
+#: Baud Rate register values of the MX-64's listed rates (its control table): what a servo
+#: can be set to, by handarm or by another tool.
+SERVO_BAUD_REGISTER = {
     1_000_000: 1,
     500_000: 3,
     400_000: 4,
@@ -98,6 +101,18 @@ BAUD_VALUES = {
     2_500_000: 251,
     3_000_000: 252,
 }
+
+#: The rates the SDK's ``PortHandler.setBaudRate`` accepts (its ``getCFlagBaud``); it
+#: returns False for any other, 200,000 bit/s among them. A test holds this against the
+#: installed SDK.
+SDK_BAUDS = frozenset(
+    {9_600, 19_200, 38_400, 57_600, 115_200, 230_400, 460_800, 500_000, 576_000, 921_600,
+     1_000_000, 1_152_000, 2_000_000, 2_500_000, 3_000_000, 3_500_000, 4_000_000}
+)  # fmt: skip
+
+#: Baud Rate register values of the rates the MX-64 and the SDK share: the only ones the
+#: bus can open (a scan that tried 200,000 bit/s stopped there, on every port).
+BAUD_VALUES = {b: v for b, v in SERVO_BAUD_REGISTER.items() if b in SDK_BAUDS}
 
 
 def to_unsigned16(value: int) -> int:
