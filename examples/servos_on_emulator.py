@@ -32,8 +32,11 @@ def main() -> None:
             print("calibration offsets (ticks):", cal.offsets)
             apply_settings(bus, d, cal)
             target = np.radians([10, -20, 30, 40, -50, 60])
-            ticks = goto(bus, d, cal, target)
-            print("goal ticks sent:", ticks.tolist())
+            samples = goto(bus, d, cal, target)  # the joint samples streamed (rad)
+            print(
+                f"{len(samples)} joint samples sent, the last (deg):",
+                np.round(np.degrees(samples[-1]), 2),
+            )
             q = read_joint_angles(bus, d, cal)
             print("joint angles read back (deg):", np.round(np.degrees(q), 2))
             assert np.allclose(q, target, atol=2 * np.pi / 4096)
