@@ -225,6 +225,26 @@ def test_resource_estimate_is_in_the_refusal():
     check_resources(ArmDesign(), voxel=0.005, directions=100, max_memory=1e12, max_seconds=1e9)
 
 
+def test_time_refusal_quotes_the_limit_given_and_the_whole_job(tmp_path, capsys):
+    """A map with its sensitivity screen (3x): the message quotes the whole job and the limit."""
+    from handarm._resources import estimate
+
+    minutes = estimate(ArmDesign(), voxel=0.01, directions=100)[1] / 60
+    limit = 2.0 * minutes  # the map alone fits, with its screen (3x) it does not
+    with pytest.raises(ValueError) as info:
+        check_resources(ArmDesign(), voxel=0.01, directions=100, max_seconds=60 * limit,
+                        time_factor=3.0)  # fmt: skip
+    said = re.search(r"needs about ([\d.]+) min, over the ([\d.e-]+) min limit", str(info.value))
+    assert said, info.value
+    assert float(said[2]) == pytest.approx(limit, rel=1e-5)
+    assert float(said[1]) == pytest.approx(3.0 * minutes, rel=0.05)
+    check_resources(ArmDesign(), voxel=0.01, directions=100, max_seconds=60 * limit)
+    code, _, err = run(capsys, "build", "--out", tmp_path / "b", "--max-minutes", "0.01")
+    one_line_error(err, code)
+    assert "over the 0.01 min limit" in err
+    assert not (tmp_path / "b").exists()
+
+
 def test_inverted_achieved_limits_refused(tmp_path, capsys):
     carve_json = tmp_path / "carve.json"
     joints = [{"achieved_deg": [10.0, -10.0]}] * 6

@@ -60,6 +60,12 @@ def estimate(
     return memory, seconds
 
 
+def _minutes(seconds: float) -> str:
+    """Minutes to two significant figures below ten (0.34, 2.5), whole above (12, 130)."""
+    minutes = seconds / 60
+    return f"{minutes:.0f}" if minutes >= 10 else f"{minutes:.2g}"
+
+
 def check_resources(
     design: ArmDesign,
     *,
@@ -68,12 +74,19 @@ def check_resources(
     resolution_deg: float | None = None,
     max_memory: float = DEFAULT_MAX_MEMORY,
     max_seconds: float = DEFAULT_MAX_SECONDS,
+    time_factor: float = 1.0,
 ) -> None:
-    """Refuse (ValueError naming the setting, with the estimate) a job over the limits."""
+    """Refuse (ValueError naming the setting, with the estimate) a job over the limits.
+
+    ``time_factor``: the whole job's time over the estimated one's (a map with its
+    sensitivity screen, in a scene), so that the message quotes the job against the limit
+    the user gave.
+    """
     _check_settings(voxel, directions, resolution_deg)
     memory, seconds = estimate(
         design, voxel=voxel, directions=directions, resolution_deg=resolution_deg
     )
+    seconds *= time_factor
     what = "resolution_deg"
     if voxel is not None:
         # name the setting that drives the size: directions when the per-query counts dominate
@@ -85,7 +98,7 @@ def check_resources(
         )
     if seconds > max_seconds:
         raise ValueError(
-            f"{what}: the job needs about {seconds / 60:.0f} min, over the "
+            f"{what}: the job needs about {_minutes(seconds)} min, over the "
             f"{max_seconds / 60:g} min limit (raise it with max_seconds / --max-minutes)"
         )
 

@@ -245,7 +245,8 @@ def _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_se
         voxel=voxel,
         directions=directions,
         max_memory=max_memory,
-        max_seconds=max_seconds / (3 if sensitivity else 1) / scene_cost,
+        max_seconds=max_seconds,
+        time_factor=(3 if sensitivity else 1) * scene_cost,
     )
 
 
