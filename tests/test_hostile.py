@@ -245,6 +245,19 @@ def test_time_refusal_quotes_the_limit_given_and_the_whole_job(tmp_path, capsys)
     assert not (tmp_path / "b").exists()
 
 
+@pytest.mark.parametrize("command", ["build", "workspace"])
+def test_a_voxel_in_millimetres_is_refused(command, tmp_path, capsys):
+    """--voxel 30 (meant 0.03 m) built a one-voxel map with every score 0, exit 0."""
+    code, _, err = run(capsys, command, "--voxel", "30", "--out", tmp_path / "o")
+    one_line_error(err, code)
+    assert "voxel: 30 m is coarser than the arm's reach (0.300 m) over 4" in err
+    assert "in metres" in err
+    assert not (tmp_path / "o").exists()
+    with pytest.raises(ValueError, match=r"^voxel: 0\.08 m is coarser"):
+        check_resources(ArmDesign(), voxel=0.08, directions=36)
+    check_resources(ArmDesign(), voxel=0.07, directions=36)  # 0.075 is the bound
+
+
 def test_inverted_achieved_limits_refused(tmp_path, capsys):
     carve_json = tmp_path / "carve.json"
     joints = [{"achieved_deg": [10.0, -10.0]}] * 6

@@ -60,6 +60,10 @@ def estimate(
     return memory, seconds
 
 
+#: A map's voxel edge is at most the arm's reach over this (a map 8 voxels across at least).
+_VOXELS_ACROSS = 4
+
+
 def _minutes(seconds: float) -> str:
     """Minutes to two significant figures below ten (0.34, 2.5), whole above (12, 130)."""
     minutes = seconds / 60
@@ -83,6 +87,13 @@ def check_resources(
     the user gave.
     """
     _check_settings(voxel, directions, resolution_deg)
+    reach = float(sum(design.lengths[1:]))
+    if voxel is not None and voxel > reach / _VOXELS_ACROSS:
+        # a voxel given in millimetres (30 for 0.03) made a map of one voxel, all scores 0
+        raise ValueError(
+            f"voxel: {voxel:g} m is coarser than the arm's reach ({reach:.3f} m) over "
+            f"{_VOXELS_ACROSS}; the edge is in metres (0.01 is 1 cm)"
+        )
     memory, seconds = estimate(
         design, voxel=voxel, directions=directions, resolution_deg=resolution_deg
     )
