@@ -258,6 +258,14 @@ def test_a_voxel_in_millimetres_is_refused(command, tmp_path, capsys):
     check_resources(ArmDesign(), voxel=0.07, directions=36)  # 0.075 is the bound
 
 
+def test_no_empty_sensitivity_bar_without_the_screen(tmp_path, capsys):
+    """--no-sensitivity drew an empty 'sensitivity screen: 0map' bar on stderr."""
+    args = ["--voxel", "0.05", "--directions", "36", "--out"]
+    code, _, err = run(capsys, "workspace", *args, tmp_path / "a", "--no-sensitivity")
+    assert code == 0, err
+    assert "workspace" in err and "sensitivity screen" not in err
+
+
 def test_inverted_achieved_limits_refused(tmp_path, capsys):
     carve_json = tmp_path / "carve.json"
     joints = [{"achieved_deg": [10.0, -10.0]}] * 6

@@ -207,7 +207,13 @@ def map_workspace(
         tqdm(
             desc="workspace", unit="query", unit_scale=True, disable=not progress, leave=False
         ) as bar,
-        tqdm(desc="sensitivity screen", unit="map", disable=not progress, leave=False) as maps,
+        tqdm(
+            desc="sensitivity screen",
+            unit="map",
+            # no screen (asked off, or in a scene): no empty bar either
+            disable=not (progress and makes_sensitivity(sensitivity, scene)),
+            leave=False,
+        ) as maps,
     ):
 
         def ticker(b):
