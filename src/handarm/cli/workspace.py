@@ -116,7 +116,9 @@ def register(sub) -> None:
         description="Reachability map, workspace scores, the paper's claims checked, pictures.",
     )
     add_design_arg(p)
-    p.add_argument("--out", default="build/workspace", help="output folder")
+    p.add_argument(
+        "--out", default="build/workspace", help="output folder (default build/workspace)"
+    )
     add_map_options(p)
     p.add_argument(
         "--threshold",
@@ -140,7 +142,9 @@ def register(sub) -> None:
         description="Trade study: carve and score every design of STUDY.toml (resumable, on Dask).",
     )
     p.add_argument("study", metavar="STUDY.toml", help="study file")
-    p.add_argument("--out", default="build/study", help="output folder (resumable)")
+    p.add_argument(
+        "--out", default="build/study", help="output folder, resumable (default build/study)"
+    )
     p.add_argument(
         "--scheduler",
         metavar="tcp://HOST:8786",
