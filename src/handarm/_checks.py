@@ -32,3 +32,24 @@ def check_array(value: Any, name: str, last: int, *, finite: bool = True) -> np.
 def check_joints(q: Any, name: str = "q") -> np.ndarray:
     """Joint angles, shape (..., 6), radians, finite."""
     return check_array(q, name, 6)
+
+
+def check_number(value: Any, name: str, *, low: float | None = None, unit: str = "") -> float:
+    """A finite real number (at least ``low`` if given) as a float; ValueError naming ``name``.
+
+    ``unit`` is said in the message ("m", "rad"). Booleans, strings, None and arrays of more
+    than one number are refused, not converted.
+    """
+    at_least = "" if low is None else f" >= {low:g}"
+    unit = f" ({unit})" if unit else ""
+    real = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    if not real and not (
+        isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iuf"
+    ):
+        raise ValueError(
+            f"{name}: expected a finite number{at_least}{unit}, got {type(value).__name__}"
+        )
+    x = float(value)
+    if not np.isfinite(x) or (low is not None and x < low):
+        raise ValueError(f"{name}: expected a finite number{at_least}{unit}, got {value!r}")
+    return x

@@ -395,6 +395,94 @@ def test_chunk_is_validated_everywhere(paper, chunk):
         list(ik.solve_batch_iter(paper, P, E, chunk=chunk))
 
 
+@pytest.mark.parametrize("bad", ["0.001", None, True, np.array([0.0, 1e-3]), np.nan, -1e-6])
+def test_min_width_is_a_number_or_a_named_error(paper, bad):
+    P = np.array([[0.2, 0.05, 0.05]])
+    E = np.array([[1.0, 0, 0.3]])
+    with pytest.raises(ValueError, match="^min_width: expected a finite number >= 0"):
+        ik.count_solutions(paper, P, E, min_width=bad)
+
+
+@pytest.mark.parametrize("bad", [-3, 5.0, np.nan, "0.001", True, 1e-3])
+def test_clearance_is_checked_with_or_without_a_scene(paper, bad):
+    """Without a scene there is nothing to keep a clearance from: any value but 0 is refused
+    (it was ignored, NaN included), as the CLI refuses --clearance without --scene."""
+    p, e = np.array([0.2, 0.05, 0.05]), np.array([1.0, 0, 0.3])
+    P, E = p[None], e[None]
+    for call in (
+        lambda: ik.solve(paper, p, e, clearance=bad),
+        lambda: ik.solve_batch(paper, P, E, clearance=bad),
+        lambda: ik.count_solutions(paper, P, E, clearance=bad),
+        lambda: ik.warm_up(paper, clearance=bad),
+    ):
+        with pytest.raises(ValueError, match="^clearance: "):
+            call()
+    assert ik.count_solutions(paper, P, E, clearance=0.0).shape == (1,)
+
+
+def test_solve_batch_iter_checks_every_row_first_and_names_it_as_the_batch_does(paper):
+    """A bad row is named by its row in P and E, not in its chunk, before anything is
+    yielded; shapes are compared before any chunk."""
+    q = valid_configurations(paper, np.random.default_rng(8), 12)
+    P, E = handarm.forward(paper, q)
+    zero, far = E.copy(), P.copy()
+    zero[9] = 0.0
+    far[6] = [200.0, 50.0, 50.0]  # millimetres
+    yielded = []
+    with pytest.raises(ValueError, match=r"^E\[9\]: direction has zero length"):
+        for start, _ in ik.solve_batch_iter(paper, P, zero, chunk=4):
+            yielded.append(start)
+    with pytest.raises(ValueError, match=r"^P\[6\]: .*metres"):
+        for start, _ in ik.solve_batch_iter(paper, far, E, chunk=4):
+            yielded.append(start)
+    assert yielded == []
+    with pytest.raises(ValueError, match=r"^P, E: .*\(12, 3\) and \(24, 3\)"):
+        ik.solve_batch_iter(paper, P, np.vstack([E, E]), chunk=5)
+    with pytest.raises(ValueError, match=r"^P, E: .*\(3,\) and \(3,\)"):
+        ik.solve_batch_iter(paper, P[0], E[0])
+    starts = [s for s, b in ik.solve_batch_iter(paper, P, E, chunk=5)]
+    assert starts == [0, 5, 10]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"u": "0.1"}, "^u: expected a finite number"),
+        ({"u": None}, "^u: expected a finite number"),
+        ({"u": np.array([0.0, 0.1])}, "^u: expected a finite number"),
+        ({"u": np.inf}, "^u: expected a finite number"),
+        ({"result": "r"}, "^result: expected the IKResult"),
+        ({"p": [200.0, 50.0, 50.0]}, "^p: .*metres"),
+        ({"azimuth": "north"}, "^azimuth: expected a finite number"),
+    ],
+)
+def test_configuration_at_names_a_bad_argument(paper, kwargs, match):
+    p, e = np.array([0.2, 0.05, 0.02]), np.array([1.0, 0.2, -0.3])
+    r = ik.solve(paper, p, e)
+    args = {"p": r.target[0], "e": r.target[1], "branch": r.branches[0],
+            "u": float(r.intervals[0].mean())} | kwargs  # fmt: skip
+    with pytest.raises(ValueError, match=match):
+        ik.configuration_at(paper, **args)
+
+
+def test_configuration_at_refuses_a_batch_result(paper):
+    P, E = np.array([[0.2, 0.05, 0.02]]), np.array([[1.0, 0.2, -0.3]])
+    b = ik.solve_batch(paper, P, E)
+    with pytest.raises(ValueError, match="^result: .*got BatchResult"):
+        ik.configuration_at(paper, P[0], E[0], b.branches[0, 0], 0.0, result=b)
+
+
+@pytest.mark.parametrize(
+    ("configurations", "match"),
+    [(np.zeros(5), "^configurations: expected shape"),
+     (np.full((1, 6), 90.0), "^configurations: .*radians"),
+     (np.zeros((2, 2, 6)), "^configurations: expected shape")],
+)  # fmt: skip
+def test_warm_up_names_bad_configurations(paper, configurations, match):
+    with pytest.raises(ValueError, match=match):
+        ik.warm_up(paper, configurations=configurations)
+
+
 def test_batch_widens_instead_of_truncating(paper, monkeypatch):
     """With a row width smaller than some targets need, batch still keeps every range."""
     rng = np.random.default_rng(3)

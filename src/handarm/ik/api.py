@@ -11,7 +11,7 @@ from handarm.design import ArmDesign
 from handarm.ik._common import wrap
 from handarm.ik._polish import least_motion
 from handarm.ik.degrade import ORDERS, _angle, degrade_target
-from handarm.ik.exact import _exact, check_inputs
+from handarm.ik.exact import _exact, check_clearance, check_inputs
 from handarm.ik.results import IKResult
 
 __all__ = ["solve", "least_joint_motion", "FAMILY_END_RATIO"]
@@ -71,8 +71,10 @@ def solve(
     ValueError
         If ``p``, ``e`` or ``current`` has the wrong shape, is not finite, or ``e`` is zero;
         if ``p`` lies beyond 100 x the arm's reach or ``current`` beyond +-2 pi (units
-        mistaken); if ``order`` or ``degrade`` is not one of its values.
+        mistaken); if ``order`` or ``degrade`` is not one of its values; if ``clearance``
+        is not a distance in [0, 1] m, or not 0 without a ``scene``.
     """
+    check_clearance(clearance, scene)
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
     if not isinstance(degrade, bool):

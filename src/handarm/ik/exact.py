@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from handarm._checks import check_array, check_design, check_joints
+from handarm._checks import check_array, check_design, check_joints, check_number
 from handarm.collision import kernel_coefficients, kernel_env, kernel_far, kernel_tables
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
@@ -74,8 +74,14 @@ def branch_from_pose(q, p, e, j4) -> tuple[np.ndarray, np.ndarray]:
     return branch, u
 
 
-def check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray, np.ndarray]:
-    """Checked float arrays (..., 3) of points and unit directions; ValueError naming them."""
+def check_target(
+    p, e, p_name: str = "p", e_name: str = "e", first: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Checked float arrays (..., 3) of points and unit directions; ValueError naming them.
+
+    ``first``: the row number of the first row (a chunk of a larger batch names its rows as
+    the batch numbers them).
+    """
     p = check_array(p, p_name, 3)
     e = check_array(e, e_name, 3)
     # scale by the largest component first: neither 1e154 (whose square overflows) nor
@@ -83,7 +89,7 @@ def check_target(p, e, p_name: str = "p", e_name: str = "e") -> tuple[np.ndarray
     big = np.max(np.abs(e), axis=-1, keepdims=True)
     bad = big[..., 0] == 0.0
     if np.any(bad):
-        where = "" if e.ndim == 1 else f"[{int(np.flatnonzero(bad.reshape(-1))[0])}]"
+        where = "" if e.ndim == 1 else f"[{first + int(np.flatnonzero(bad.reshape(-1))[0])}]"
         raise ValueError(f"{e_name}{where}: direction has zero length")
     e = e / big
     return p, e / np.linalg.norm(e, axis=-1, keepdims=True)
@@ -96,8 +102,11 @@ REACH_FACTOR = 100.0
 MAX_JOINT_ANGLE = 2.0 * math.pi
 
 
-def check_scale(design: ArmDesign, p: np.ndarray, name: str = "p") -> None:
-    """ValueError naming ``name`` if a point lies beyond REACH_FACTOR x the arm's reach."""
+def check_scale(design: ArmDesign, p: np.ndarray, name: str = "p", first: int = 0) -> None:
+    """ValueError naming ``name`` if a point lies beyond REACH_FACTOR x the arm's reach.
+
+    ``first``: the row number of p's first row (as in ``check_target``).
+    """
     reach = float(np.sum(design.lengths))
     # norm as big x norm(p / big): no overflow inside the norm; a distance past the float
     # maximum is inf (and far), without a warning
@@ -107,18 +116,45 @@ def check_scale(design: ArmDesign, p: np.ndarray, name: str = "p") -> None:
         dist = big[..., 0] / max(reach, 1e-300) * np.linalg.norm(unit, axis=-1)
     far = dist > REACH_FACTOR
     if np.any(far):
-        where = "" if p.ndim == 1 else f"[{int(np.flatnonzero(far.reshape(-1))[0])}]"
+        where = "" if p.ndim == 1 else f"[{first + int(np.flatnonzero(far.reshape(-1))[0])}]"
         raise ValueError(
             f"{name}{where}: {float(np.max(dist)):.3g} x the arm's reach ({reach:g} m) away; "
             f"positions are metres and must lie within {REACH_FACTOR:g} x the reach"
         )
 
 
-def check_current(current, name: str = "current") -> np.ndarray:
-    """Joint angles (6,) in radians within +-MAX_JOINT_ANGLE; ValueError naming ``name``."""
+def check_clearance(clearance, scene) -> float:
+    """``clearance`` (m) as a float: a distance in [0, 1] m, kept from ``scene``'s obstacles.
+
+    Without a scene there is nothing to keep it from: any value but 0 is a mistake (a
+    clearance meant for the links, say), refused as the CLI refuses ``--clearance`` without
+    ``--scene``.
+    """
+    if isinstance(clearance, (bool, np.bool_)) or not isinstance(
+        clearance, (int, float, np.integer, np.floating)
+    ):
+        raise ValueError(f"clearance: expected a distance in metres, got {clearance!r}")
+    if not (math.isfinite(clearance) and 0.0 <= clearance <= 1.0):
+        raise ValueError(f"clearance: expected a distance in [0, 1] m, got {clearance!r}")
+    if scene is None and clearance != 0.0:
+        raise ValueError(
+            f"clearance: the distance kept from a scene's obstacles; got {clearance!r} "
+            "without a scene"
+        )
+    return float(clearance)
+
+
+def check_current(current, name: str = "current", rows: bool = False) -> np.ndarray:
+    """Joint angles (6,) in radians within +-MAX_JOINT_ANGLE; ValueError naming ``name``.
+
+    ``rows``: any number of configurations, shape (6,) or (k, 6), returned as (k, 6).
+    """
     current = check_joints(current, name)
-    if current.shape != (6,):
-        raise ValueError(f"{name}: expected shape (6,), got {current.shape}")
+    if rows and current.ndim <= 2:
+        current = current.reshape(-1, 6)
+    elif current.shape != (6,):
+        want = "(6,) or (k, 6)" if rows else "(6,)"
+        raise ValueError(f"{name}: expected shape {want}, got {current.shape}")
     if np.any(np.abs(current) > MAX_JOINT_ANGLE):
         raise ValueError(
             f"{name}: joint angles are radians within +-2 pi; got "
@@ -389,9 +425,11 @@ def solve_batch(
     Raises
     ------
     ValueError
-        If the targets are malformed or ``chunk`` is not an integer >= 1.
+        If the targets are malformed, ``chunk`` is not an integer >= 1 or ``clearance`` is
+        not a distance in [0, 1] m (or not 0 without a scene).
     """
     _check_chunk(chunk)
+    check_clearance(clearance, scene)
     if scene is not None:
         from handarm.ik.obstacles import solve_batch_in_scene
 
@@ -452,8 +490,27 @@ def solve_batch_iter(design: ArmDesign, P, E, *, chunk: int = _BATCH_CHUNK):
 
     Memory stays bounded by the chunk whatever N is (1e7 targets at 1.6 kB of padded
     output each would need 16 GB at once); ``P`` and ``E`` may be memory-mapped arrays.
+    Every chunk is checked before the first is solved, and an error names the row as ``P``
+    and ``E`` number it: nothing is yielded for a batch with a bad row.
     """
     _check_chunk(chunk)
+    check_design(design)
+    try:
+        shapes = np.shape(P), np.shape(E)
+    except ValueError:  # ragged nested lists
+        shapes = None
+    if shapes is None or len(shapes[0]) != 2 or shapes[0] != shapes[1] or shapes[0][1] != 3:
+        got = "ragged lists" if shapes is None else f"{shapes[0]} and {shapes[1]}"
+        raise ValueError(f"P, E: expected two arrays of shape (N, 3), got {got}")
+    n = len(P)
+    for start in range(0, n, chunk):
+        Pc, _ = check_target(P[start : start + chunk], E[start : start + chunk], "P", "E", start)
+        check_scale(design, Pc, "P", start)
+    return _solve_chunks(design, P, E, chunk)
+
+
+def _solve_chunks(design: ArmDesign, P, E, chunk: int):
+    """``solve_batch_iter``'s generator, on checked targets."""
     n = len(P)
     for start in range(0, n, chunk):
         yield (
@@ -505,12 +562,12 @@ def count_solutions(
     Raises
     ------
     ValueError
-        If the targets are malformed, ``chunk < 1`` or ``min_width`` is negative or not
-        finite.
+        If the targets are malformed, ``chunk < 1``, ``min_width`` is not a number >= 0 or
+        ``clearance`` not a distance in [0, 1] m (or not 0 without a scene).
     """
     _check_chunk(chunk)
-    if not (math.isfinite(min_width) and min_width >= 0.0):
-        raise ValueError(f"min_width: expected a finite number >= 0 (m), got {min_width!r}")
+    min_width = check_number(min_width, "min_width", low=0.0, unit="m")
+    check_clearance(clearance, scene)
     if scene is not None:
         from handarm.ik.obstacles import count_in_scene
 
@@ -694,11 +751,23 @@ def configuration_at(
     Raises
     ------
     ValueError
-        If u is out of reach of the branch, or (p, e) is not ``result.target``.
+        If u is not a finite number or is out of reach of the branch, (p, e) is not
+        ``result.target``, ``result`` is not an IKResult, or p lies beyond 100 x the arm's
+        reach (units mistaken).
     """
     check_design(design)
     p, e = check_target(p, e)
+    if p.shape != (3,) or e.shape != (3,):
+        raise ValueError(f"p, e: expected shape (3,) each, got {p.shape} and {e.shape}")
+    check_scale(design, p)
     br = _check_branch(branch)
+    u = check_number(u, "u", unit="m")
+    if azimuth is not None:
+        azimuth = check_number(azimuth, "azimuth", unit="rad")
+    if result is not None and not isinstance(result, IKResult):
+        raise ValueError(
+            f"result: expected the IKResult of one target (ik.solve), got {type(result).__name__}"
+        )
     if result is not None:
         tp, te = result.target
         if not (np.allclose(p, tp, rtol=0, atol=1e-12) and np.allclose(e, te, rtol=0, atol=1e-12)):
@@ -711,8 +780,6 @@ def configuration_at(
             raise ValueError(f"p, e: {what}")
         if azimuth is None and result.vertical:
             azimuth = result.azimuth
-    if not math.isfinite(u):
-        raise ValueError(f"u: must be finite, got {u}")
     dx, dy = _line_direction(p, e, br[0], azimuth)
     q = np.empty(6)
     ok = K.configuration_at_u(p, e, dx, dy, float(u), float(br[1]), float(br[2]), design.lengths, q)

@@ -15,7 +15,6 @@ clearance; ``follow`` (with ``current``) is the configuration inside the ranges 
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
@@ -34,6 +33,7 @@ from handarm.ik.exact import (
     _exact,
     _line_direction,
     _model,
+    check_clearance,
     check_inputs,
     follow_configuration,
 )
@@ -41,14 +41,6 @@ from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult
 from handarm.scene import Scene, _check_scene, _kernel_args, scene_gaps
 
 __all__ = ["count_in_scene", "solve_batch_in_scene", "solve_in_scene"]
-
-
-def _check_clearance(clearance) -> float:
-    if isinstance(clearance, bool) or not isinstance(clearance, (int, float)):
-        raise ValueError(f"clearance: expected a distance in metres, got {clearance!r}")
-    if not (math.isfinite(clearance) and 0.0 <= clearance <= 1.0):
-        raise ValueError(f"clearance: expected a distance in [0, 1] m, got {clearance!r}")
-    return float(clearance)
 
 
 def solve_in_scene(
@@ -82,7 +74,7 @@ def solve_in_scene(
     """
     p, e, current = check_inputs(design, p, e, current)
     scene = _check_scene(scene)
-    c = _check_clearance(clearance)
+    c = check_clearance(clearance, scene)
     free = _exact(design, p, e, current)
     if len(scene) == 0 or free.count == 0:
         return dataclasses.replace(
@@ -181,7 +173,7 @@ def count_in_scene(
     Ranges narrower than ``min_width`` (m of u) are not counted. Shape (N,), int.
     """
     scene = _check_scene(scene)
-    c = _check_clearance(clearance)
+    c = check_clearance(clearance, scene)
     if len(scene) == 0:
         from handarm.ik.exact import count_solutions
 

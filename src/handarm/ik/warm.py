@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from handarm.design import ArmDesign
+from handarm.ik.exact import check_current
 from handarm.kinematics import forward, is_valid
 
 __all__ = ["warm_up"]
@@ -29,7 +30,7 @@ def _valid_configurations(design: ArmDesign, n: int, seed: int, first=None) -> n
     """Up to ``n`` valid configurations: ``first``'s valid rows, then uniform draws."""
     found = np.empty((0, 6))
     if first is not None:
-        first = np.asarray(first, dtype=float).reshape(-1, 6)
+        first = check_current(first, "configurations", rows=True)
         found = first[is_valid(design, first)]
     rng = np.random.default_rng(seed)
     for _ in range(_DRAWS):
@@ -80,13 +81,15 @@ def warm_up(
         If ``design`` is not an ArmDesign.
     ValueError
         If neither ``configurations`` nor 20 rounds of random draws give a valid
-        configuration.
+        configuration; if ``configurations`` are not joint angles (k, 6) in radians within
+        +-2 pi, or ``clearance`` is not a distance in [0, 1] m (or not 0 without a scene).
     """
     from handarm.ik.api import solve
-    from handarm.ik.exact import count_solutions, solve_batch
+    from handarm.ik.exact import check_clearance, count_solutions, solve_batch
 
     if not isinstance(design, ArmDesign):
         raise TypeError(f"design: expected an ArmDesign, got {type(design).__name__}")
+    check_clearance(clearance, scene)
     t0 = time.perf_counter()
     q = _valid_configurations(design, 6, seed, configurations)
     if len(q) == 0:
