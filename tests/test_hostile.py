@@ -317,6 +317,43 @@ def test_urdf_out_symlink_refused(tmp_path, capsys):
     assert link.is_symlink() and not (tmp_path / "victim").exists()
 
 
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["urdf", "--out", ""], "^--out: expected a file name"),
+        (["urdf", "--out", "{tmp}"], "^--out: expected a file name|exists and is not a regular"),
+        (["urdf", "--out", "{tmp}/missing/a.urdf"], "^--out: no such folder"),
+        (["urdf", "--out", "{tmp}/link.urdf"], "^--out: .*symbolic link"),
+        (["urdf", "--out", "/proc/version"], "^--out: "),
+        (["ik", "--pos", "0.2", "0", "0.05", "--dir", "1", "0", "0", "--picture",
+          "{tmp}/link.png"], "^--picture: .*symbolic link"),
+        (["ik", "--pos", "0.2", "0", "0.05", "--dir", "1", "0", "0", "--picture",
+          "{tmp}/dangling.png"], "^--picture: .*symbolic link"),
+    ],
+)  # fmt: skip
+def test_output_file_options_are_named_and_checked_before_any_work(
+    tmp_path, capsys, monkeypatch, argv, match
+):
+    """An output file is a file name in an existing folder, never written through a link;
+    the refusal names the option and comes before the solve or the design's export."""
+    (tmp_path / "target.png").write_bytes(b"x")
+    (tmp_path / "link.png").symlink_to(tmp_path / "target.png")
+    (tmp_path / "link.urdf").symlink_to(tmp_path / "target.png")
+    (tmp_path / "dangling.png").symlink_to(tmp_path / "nowhere.png")
+    import handarm.ik
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the solve ran before the output file was checked")
+
+    monkeypatch.setattr(handarm.ik, "solve", no_work)
+    code, out, err = run(capsys, *[a.replace("{tmp}", str(tmp_path)) for a in argv])
+    one_line_error(err, code)
+    assert re.search(match, err.split("error: ", 1)[-1]), err
+    assert out == ""
+    assert (tmp_path / "target.png").read_bytes() == b"x"
+    assert not (tmp_path / "missing").exists() and not (tmp_path / "nowhere.png").exists()
+
+
 def test_build_folder_lock_marker_manifest_and_cleanup(tmp_path):
     out = tmp_path / "b"
     with build_folder(out, {"name": "one"}) as files:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from collections.abc import Mapping
+from pathlib import Path
 
 from handarm._resources import DEFAULT_MAX_MEMORY, DEFAULT_MAX_SECONDS
 from handarm.design import ArmDesign
@@ -12,6 +14,29 @@ from handarm.design import ArmDesign
 
 class UsageError(Exception):
     """A mistake in what the user asked for; reported as one line, exit status 2."""
+
+
+def out_file(value: str, option: str, suffix: str | None = None) -> Path:
+    """The output file an option names, checked before any work.
+
+    A file name (with ``suffix`` if given) in an existing, writable folder, and nothing but
+    a regular file there already: a symbolic link, even to a file, is refused rather than
+    written through.
+    """
+    path = Path(value)
+    if not value or path.name in ("", ".", ".."):
+        raise UsageError(f"{option}: expected a file name, got {value!r}")
+    if suffix is not None and path.suffix.lower() != suffix:
+        raise UsageError(f"{option}: expected a {suffix} file name, got {value!r}")
+    if not path.parent.is_dir():
+        raise UsageError(f"{option}: no such folder: {str(path.parent)!r}")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{option}: folder {str(path.parent)!r} is not writable")
+    if path.is_symlink():
+        raise UsageError(f"{option}: {value!r} is a symbolic link; give a file name")
+    if path.exists() and not path.is_file():
+        raise UsageError(f"{option}: {value!r} exists and is not a regular file")
+    return path
 
 
 def load_design(path: str | None) -> ArmDesign:

@@ -7,6 +7,7 @@ import math
 
 from handarm.cli._common import (
     MAP_OPTIONS,
+    UsageError,
     add_design_arg,
     add_limits,
     add_map_options,
@@ -17,6 +18,7 @@ from handarm.cli._common import (
     load_scene,
     number,
     option_error,
+    out_file,
 )
 
 
@@ -86,7 +88,12 @@ def cmd_urdf(args: argparse.Namespace) -> int:
     """Write the design as URDF."""
     from handarm.cad_out.urdf import write_urdf
 
-    print(write_urdf(load_design(args.design), args.out))
+    out = out_file(args.out, "--out")
+    design = load_design(args.design)
+    try:
+        print(write_urdf(design, out))
+    except OSError as exc:  # a folder that refuses files (/proc) though access() allowed it
+        raise UsageError(f"--out: cannot write {args.out!r}: {exc.strerror or exc}") from None
     return 0
 
 

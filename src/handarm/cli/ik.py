@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from handarm.cli._common import (
-    UsageError,
     add_scene_options,
     load_design,
     load_scene,
     number,
     option_error,
+    out_file,
 )
 
 _OPTIONS = {"p": "--pos", "e": "--dir", "current": "--current", "clearance": "--clearance"}
@@ -58,16 +58,7 @@ def cmd_ik(args: argparse.Namespace) -> int:
 
 def _picture_path(value: str | None) -> Path | None:
     """--picture checked before any work: a .png in an existing folder, not a folder."""
-    if value is None:
-        return None
-    path = Path(value)
-    if path.suffix.lower() != ".png":
-        raise UsageError(f"--picture: expected a .png file name, got {value!r}")
-    if not path.parent.is_dir():
-        raise UsageError(f"--picture: no such folder: {str(path.parent)!r}")
-    if path.exists() and not path.is_file():
-        raise UsageError(f"--picture: {value!r} exists and is not a regular file")
-    return path
+    return None if value is None else out_file(value, "--picture", ".png")
 
 
 def register(sub) -> None:
