@@ -1,3 +1,4 @@
+import json
 import math
 
 import numpy as np
@@ -549,7 +550,13 @@ def test_no_degrade_gives_an_empty_result():
     d = handarm.ArmDesign()
     r = ik.solve(d, [0.5, 0.0, 0.0], [1, 0, 0], degrade=False)
     assert r.count == 0 and r.reached_dof == 0
-    assert r.to_dict()["reached_dof"] == 0
+    out = r.to_dict()
+    assert out["reached_dof"] == 0
+    # no pose reached: the file says nothing about one (it said the target, errors 0)
+    for key in ("position_error_m", "direction_error_deg", "achieved_position_m",
+                "achieved_direction"):  # fmt: skip
+        assert out[key] is None, key
+    json.dumps(out, allow_nan=False)
 
 
 def test_nearest_point_seeds_are_valid_and_nearest_first(monkeypatch):

@@ -71,7 +71,8 @@ class IKResult:
         (the result is then degraded, or empty when nothing near the target keeps clear).
 
     A result with no range (``count == 0``) reached nothing: its ``reached_dof`` is 0
-    whatever it was made with, its errors 0, its achieved pose the target itself.
+    whatever it was made with, its errors 0, its achieved pose the target itself (no pose
+    was reached: ``to_dict`` writes these as null).
     """
 
     solutions: np.ndarray
@@ -115,15 +116,20 @@ class IKResult:
         return self.achieved_position, self.achieved_direction
 
     def to_dict(self) -> dict:
-        """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which)."""
+        """Plain JSON-ready dict; angles in degrees, lengths in metres (keys say which).
+
+        An empty answer (``reached_dof`` 0) reached no pose: its errors and achieved pose
+        are null, so that no reader of the file takes it for the target reached.
+        """
+        reached = self.reached_dof != 0
         return {
             "reached_dof": int(self.reached_dof),
-            "position_error_m": float(self.position_error),
-            "direction_error_deg": math.degrees(self.direction_error),
+            "position_error_m": float(self.position_error) if reached else None,
+            "direction_error_deg": math.degrees(self.direction_error) if reached else None,
             "vertical": bool(self.vertical),
             "azimuth_deg": math.degrees(self.azimuth),
-            "achieved_position_m": _list(self.achieved_position),
-            "achieved_direction": _list(self.achieved_direction),
+            "achieved_position_m": _list(self.achieved_position) if reached else None,
+            "achieved_direction": _list(self.achieved_direction) if reached else None,
             "solutions": [
                 {
                     "q_deg": np.degrees(q).tolist(),
