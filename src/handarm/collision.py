@@ -204,28 +204,31 @@ def _link_pieces(design: ArmDesign, k: int) -> list[Piece]:
     for part in blank.parts:
         frame = 0 if (part.frame == "prox" or blank.dist_from_prox is None) else 1
         verts = np.asarray(part.polygon, dtype=float)
-        todo.append(_piece(k, frame, verts, (part.z0, part.z1), (part.name,)))
+        piece, verts = _piece(k, frame, verts, (part.z0, part.z1), (part.name,))
+        todo.append((piece, verts, piece.area))
     # merge two pieces of one frame where the merged cover is hardly larger than the larger
-    # of the two (a cheek inside its plate's cover): fewer pieces, no looser envelope
+    # of the two (a cheek inside its plate's cover): fewer pieces, no looser envelope. Each
+    # piece's area is computed once: the rounds asked for it ~90 times per link.
     tried = {}  # (parts, parts) -> merged piece: each pair is covered once, not every round
     while True:
         best = None
-        for (i, (pa, va)), (j, (pb, vb)) in itertools.combinations(enumerate(todo), 2):
+        for (i, (pa, va, aa)), (j, (pb, vb, ab)) in itertools.combinations(enumerate(todo), 2):
             if pa.frame != pb.frame:
                 continue
             key = (pa.parts, pb.parts)
             if key not in tried:
                 z = (min(pa.z[0], pb.z[0]) / _MM, max(pa.z[1], pb.z[1]) / _MM)
-                tried[key] = _piece(k, pa.frame, np.vstack([va, vb]), z, pa.parts + pb.parts)
+                piece, verts = _piece(k, pa.frame, np.vstack([va, vb]), z, pa.parts + pb.parts)
+                tried[key] = (piece, verts, piece.area)
             merged = tried[key]
-            ratio = merged[0].area / max(pa.area, pb.area)
+            ratio = merged[2] / max(aa, ab)
             if ratio <= _MERGE and (best is None or ratio < best[0]):
                 best = (ratio, i, j, merged)
         if best is None:
             break
         _, i, j, merged = best
         todo = [t for n, t in enumerate(todo) if n not in (i, j)] + [merged]
-    return [p for p, _ in todo]
+    return [p for p, _, _ in todo]
 
 
 @functools.lru_cache(maxsize=64)
