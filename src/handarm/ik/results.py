@@ -35,10 +35,11 @@ class IKResult:
     position_error, direction_error : float
         Distance (m) and angle (rad) between the target and the pose of ``solutions``.
     vertical : bool
-        ``e`` was vertical, so d was free; the ranges are those at ``azimuth``: the azimuth
-        with a solution nearest to that of ``current`` (l3's direction), or without
-        ``current``, nearest to the direction from joint 1 towards the target (0.5 degree
-        steps).
+        The direction the ranges solve (``target[1]``: ``e`` when exact, the relaxed one
+        when degraded) was vertical, so d was free; the ranges are those at ``azimuth``:
+        the azimuth with a solution nearest to that of ``current`` (l3's direction), or
+        without ``current``, nearest to the direction from joint 1 towards the target (0.5
+        degree steps).
     azimuth : float
         Direction of L (rad from +x) for d = +1.
     achieved_position, achieved_direction : ndarray, shape (3,)
