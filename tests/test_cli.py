@@ -1,3 +1,4 @@
+import csv
 import json
 import math
 import subprocess
@@ -96,6 +97,16 @@ def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
     ]
     assert cut[1]
     assert (b / "controller" / "arm_config.h").exists()
+    # one source for the cables' cut lengths: the handle's runs, in the bill of materials,
+    # tendons.json and the summary alike (tendons.json once assumed a 100 mm run: 138 mm off)
+    with open(b / "bom.csv") as fh:
+        bom = {r["item"]: r["size"] for r in csv.DictReader(fh)}
+    cables = json.loads((b / "tendons.json").read_text())["cables"]
+    summary = (b / "summary.txt").read_text()
+    assert len(cables) == 6
+    for c in cables:
+        cut = f"cut {c['cut_length_m'] * 1e3:.0f} mm"
+        assert cut in bom[f"cable {c['cable']}"] and cut in summary
     # nothing half-written is left behind; every file is printed but the folder's own records
     assert not list(b.rglob("*.tmp")) and not (b / INCOMPLETE).exists()
     files = {p for p in b.rglob("*") if p.is_file()} - {b / MANIFEST, b / LOCK}

@@ -145,10 +145,27 @@ def test_motor_pulley_parts_mate_over_the_sunk_horn_screws(radius):
     assert r.max() - r.min() >= 1.2 - 1e-6
 
 
-@pytest.mark.parametrize("radius", [0.005, 0.0075])
-def test_too_small_a_motor_pulley_is_refused(radius):
+@pytest.mark.parametrize("radius", [0.005, 0.007, 0.0075])
+def test_too_small_a_motor_pulley_is_refused_when_the_design_loads(radius, tmp_path):
+    """Refused at load, naming the field: it was refused only by the handle, after a
+    minute of carving that left 51 files behind (a docs reader's check)."""
     with pytest.raises(ValueError, match="motor_pulley_radius: .* smallest driving hexagon"):
-        pulley_parts(handarm.ArmDesign(motor_pulley_radius=radius))
+        handarm.ArmDesign(motor_pulley_radius=radius)
+    toml = tmp_path / "mp.toml"
+    toml.write_text(f"motor_pulley_radius = {radius}\n")
+    with pytest.raises(ValueError, match="motor_pulley_radius: .* smallest driving hexagon"):
+        handarm.ArmDesign.from_toml(toml)
+    # the smallest radius that loads builds its pulley (the two checks are one)
+    lo, hi = radius, 0.012
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        try:
+            handarm.ArmDesign(motor_pulley_radius=mid)
+            hi = mid
+        except ValueError:
+            lo = mid
+    flange, drum = pulley_parts(handarm.ArmDesign(motor_pulley_radius=hi))
+    assert len(drum.decompose()) == 1 and len(flange.decompose()) == 1
 
 
 @pytest.mark.slow

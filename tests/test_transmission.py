@@ -82,6 +82,6 @@ def test_modes_of_the_paper_arm():
 
 
 def test_too_much_travel_is_a_clear_error():
-    d = handarm.ArmDesign(motor_pulley_radius=0.002)  # 4x the motor turns
+    d = handarm.ArmDesign(joint_pulley_radii=(0.05,) * 6)  # 6x the motor turns
     with pytest.raises(ValueError, match=r"joint_limits: motor \d would turn .* multi-turn"):
         motor_ranges(d)

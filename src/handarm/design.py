@@ -21,6 +21,7 @@ import numpy as np
 import tomli_w
 
 from handarm._io import read_regular_bytes, write_text_atomic
+from handarm._pulley import drum_hexagon_problem
 from handarm.firmware_bridge.mx64 import BAUD_VALUES
 from handarm.servo import SERVOS, ServoSpec
 
@@ -462,6 +463,9 @@ def _check_relations(d: ArmDesign) -> None:
             f"motor_pulley_radius: {d.motor_pulley_radius:g} m must exceed cable_diameter "
             f"{d.cable_diameter:g} m"
         )
+    problem = drum_hexagon_problem(d)  # the handle's motor pulley: refused here, not after carving
+    if problem is not None:
+        raise ValueError(problem)
     for k, a in enumerate(d.link_lengths):
         if 2 * d.hub_radius >= a:
             raise ValueError(

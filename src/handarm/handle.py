@@ -38,6 +38,14 @@ import math
 import numpy as np
 from manifold3d import CrossSection, Manifold, OpType
 
+from handarm._pulley import (
+    CENTRE_POCKET_R,
+    CENTRE_POCKET_TOP,
+    HEAD_SINK,
+    HORN_HEAD_R,
+    drum_hexagon,
+    drum_hexagon_problem,
+)
 from handarm.design import ArmDesign
 from handarm.links import (
     M3_CLEAR,
@@ -54,6 +62,7 @@ __all__ = [
     "MotorPlace",
     "Handle",
     "motor_layout",
+    "motor_runs",
     "check_layout",
     "handle",
     "pulley_parts",
@@ -73,13 +82,6 @@ NUT_BLOCK, BOSS = 8.0, 8.0
 BED, GRIP_RADIUS, GRIP_LENGTH = 5.0, 16.0, 100.0
 #: Motor pulley: horn flange thickness, drum flanges (mm), turns of cable on the drum.
 FLANGE, DRUM_LIP, TURNS = 4.0, 1.5, 3
-# the horn screws' socket heads (M2.5: 4.5 mm across, 2.5 mm tall) sink this deep into the
-# flange, leaving 1.3 mm under them: an M2.5 x 4 screw then holds 2.7 mm of the 3 mm horn
-HORN_HEAD_R, HEAD_SINK = 2.25, 2.7
-# the horn's centre screw head needs a pocket this wide and this high above the horn face;
-# the hexagon boss around it keeps 1.2 mm of wall, which sets the smallest hexagon
-CENTRE_POCKET_R, CENTRE_POCKET_TOP = 3.3, 4.5
-MIN_HEX_R = (CENTRE_POCKET_R + 1.2) / math.cos(math.pi / 6)  # corner radius, mm
 #: Lead screw: M3, its clearance hole and nut (mm).
 M3_NUT_FLATS, M3_NUT_THICK = 5.6, 2.6
 _SEG = 64
@@ -283,6 +285,20 @@ def check_layout(design: ArmDesign, places: list[MotorPlace]) -> None:
         raise ValueError("motor layout: " + "; ".join(problems))
 
 
+def motor_runs(design: ArmDesign) -> tuple[float, ...]:
+    """Each cable's run from l0's exit plate to its motor pulley, tensioner travel included.
+
+    Metres, cables 1..6: what a cable's cut length is made of beside the arm
+    (``handarm.tendons.cut_lengths``). The one source of the cut lengths in the bill of
+    materials, ``tendons.json``, the summary and the report.
+    """
+    return _runs(motor_layout(design))
+
+
+def _runs(places) -> tuple[float, ...]:
+    return tuple((p.distance + TRAVEL) / MM for p in places)
+
+
 @functools.lru_cache(maxsize=16)
 def motor_layout(design: ArmDesign) -> tuple[MotorPlace, ...]:
     """Place the six servos in a sideways V (see the module docstring).
@@ -448,17 +464,12 @@ def pulley_parts(design: ArmDesign) -> tuple[Manifold, Manifold]:
     bolt_r = servo.horn_bolt_circle * MM / 2
     groove_w = _groove_width(design)
     drum_h = 2 * DRUM_LIP + groove_w
-    rho = design.motor_pulley_radius * MM
-    bottom = rho - design.cable_diameter * MM / 2
-    slack = c / math.cos(math.pi / 6)  # the socket's clearance, measured at its corners
-    # corners 0.3 mm inside the counterbores, 1.2 mm of drum wall outside the socket
-    hex_r = min(bolt_r - HORN_HEAD_R - 0.5, bottom - 1.2 - slack)
+    bottom = design.motor_pulley_radius * MM - design.cable_diameter * MM / 2
+    problem = drum_hexagon_problem(design)  # refused when the design loads: kept for safety
+    if problem is not None:
+        raise ValueError(problem)
+    hex_r, slack = drum_hexagon(design)
     socket_r = hex_r + slack
-    if hex_r < MIN_HEX_R:
-        raise ValueError(
-            f"motor_pulley_radius: {rho:g} mm leaves {bottom - MIN_HEX_R - slack:.2f} mm of "
-            f"drum wall around the smallest driving hexagon ({MIN_HEX_R:.1f} mm; needs 1.2 mm)"
-        )
     # the flange reaches 1.2 mm past the counterbores (a little wider than the horn)
     flange = _cyl(max(horn_r, bolt_r + HORN_HEAD_R + 0.2 + 1.2), 0.0, FLANGE)
     boss = Manifold.extrude(CrossSection.circle(hex_r, 6), drum_h).translate([0, 0, FLANGE])
@@ -516,6 +527,11 @@ class Handle:
     com: np.ndarray
     mass: float
     masses: dict
+
+    @property
+    def motor_runs(self) -> tuple[float, ...]:
+        """Each cable's run beside the arm (m, cables 1..6): see ``motor_runs``."""
+        return _runs(self.places)
 
     @property
     def balance(self) -> np.ndarray:

@@ -271,12 +271,16 @@ def _limits_summary(design: ArmDesign, carving) -> str:
 
 
 def _write_tendons(design: ArmDesign, carving, out: Path, summary: Path) -> Path:
-    """``tendons.json`` (every cable traced at several poses) and its lines in the summary."""
+    """``tendons.json`` (every cable traced at several poses) and its lines in the summary.
+
+    Cut lengths from the handle's own cable runs, as the bill of materials gives them.
+    """
     import json
 
+    from handarm.handle import motor_runs
     from handarm.tendons import tendon_report, tendon_summary
 
-    report = tendon_report(design, carving, samples=6)
+    report = tendon_report(design, carving, samples=6, motor_run=motor_runs(design))
     path = out / "tendons.json"
     write_text_atomic(path, json.dumps(report, indent=2) + "\n")
     write_text_atomic(summary, summary.read_text() + tendon_summary(report))
@@ -363,10 +367,10 @@ def build(
     """
     check_design(design)
     check_carvable(design)
+    out = check_out_dir(out)
     limits = {"max_memory": max_memory, "max_seconds": max_seconds}
     _check_map(design, voxel, directions, True, scene, max_memory, max_seconds)
     check_resources(design, resolution_deg=resolution_deg, **limits)
-    out = Path(out)
     with build_folder(out, design.to_dict()) as files:
         files.append(design.to_toml(out / "design.toml"))
         summary = out / "summary.txt"

@@ -200,7 +200,13 @@ def _pulley_reach(design: ArmDesign, j: int) -> float:
 
 
 def tendon_report(
-    design: ArmDesign, carving=None, *, samples: int = 12, seed: int = 0, poses=None
+    design: ArmDesign,
+    carving=None,
+    *,
+    samples: int = 12,
+    seed: int = 0,
+    poses=None,
+    motor_run: float | tuple[float, ...] = DEFAULT_MOTOR_RUN,
 ) -> dict:
     """Trace every cable at several poses and check it meets no printed part.
 
@@ -224,6 +230,10 @@ def tendon_report(
         Seed of the random poses.
     poses : array-like, shape (n, 6), optional
         Check exactly these poses (rad) instead.
+    motor_run : float or tuple of 6 float
+        Each cable's run beside the arm for its cut length (m, see ``cut_lengths``): a
+        build passes its handle's (``handarm.handle.Handle.motor_runs``), as the bill of
+        materials does.
 
     Returns
     -------
@@ -297,7 +307,7 @@ def tendon_report(
                             }
                         )
     lengths = cable_lengths(design)
-    cuts = cut_lengths(design)
+    cuts = cut_lengths(design, motor_run=motor_run)
     return {
         "design": design.name,
         "clear": not contacts,

@@ -185,8 +185,7 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
         f"M3 x {MAST_CLAMP + MAST_SCREW_DEPTH - 2:.0f} socket head",
         note="up through the bed's mast into l0's pilot holes (it cuts its own thread)",
     )
-    runs = [(p.distance + TRAVEL) / MM for p in h.places]
-    for c, cut in enumerate(cut_lengths(d, motor_run=tuple(runs))):
+    for c, cut in enumerate(cut_lengths(d, motor_run=h.motor_runs)):
         add(
             f"cable {c + 1}",
             "bought",
