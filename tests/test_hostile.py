@@ -354,6 +354,25 @@ def test_output_file_options_are_named_and_checked_before_any_work(
     assert not (tmp_path / "missing").exists() and not (tmp_path / "nowhere.png").exists()
 
 
+@pytest.mark.parametrize("command", ["build", "carve", "workspace", "study", "optimize"])
+def test_an_empty_out_is_refused_not_the_working_folder(tmp_path, capsys, monkeypatch, command):
+    """--out '' was the working folder: build wrote design.toml, meshes/, ... there."""
+    monkeypatch.chdir(tmp_path)
+    argv = [command]
+    if command == "study":
+        (tmp_path / "s.toml").write_text(
+            "voxel = 0.05\ndirections = 16\n[grid]\nlimit_deg_2 = [120, 150]\n"
+        )
+        argv.append("s.toml")
+    if command == "optimize":
+        argv.append(str(ROOT / "examples" / "optimize.toml"))
+    before = listing(tmp_path)
+    code, _, err = run(capsys, *argv, "--out", "")
+    one_line_error(err, code)
+    assert "--out: expected a folder name" in err, err
+    assert listing(tmp_path) == before
+
+
 def test_build_folder_lock_marker_manifest_and_cleanup(tmp_path):
     out = tmp_path / "b"
     with build_folder(out, {"name": "one"}) as files:

@@ -30,8 +30,11 @@ def check_out_dir(out: str | os.PathLike[str], name: str = "out") -> Path:
     """``out`` as a Path if it is (or can become) a writable folder; ValueError otherwise.
 
     A symlink, FIFO, device or regular file at ``out`` is refused rather than replaced or
-    written through; so is a folder the user cannot write into. Nothing is created.
+    written through; so is a folder the user cannot write into, and an empty name (which
+    would be the working folder). Nothing is created.
     """
+    if isinstance(out, str) and not out.strip():
+        raise ValueError(f"{name}: expected a folder name, got {out!r}")
     out = Path(out)
     try:
         st = out.lstat()

@@ -110,7 +110,7 @@ def add_limits(p: argparse.ArgumentParser) -> None:
 
 
 #: The map options' library argument names and the CLI options that set them.
-MAP_OPTIONS = {"voxel": "--voxel", "directions": "--directions"}
+MAP_OPTIONS = {"voxel": "--voxel", "directions": "--directions", "out": "--out"}
 
 
 def add_map_options(p: argparse.ArgumentParser) -> None:

@@ -62,13 +62,17 @@ def cmd_carve(args: argparse.Namespace) -> int:
     from handarm.cad_out.carve_files import printed_summary
     from handarm.pipeline import carve_design
 
-    carving, files = carve_design(
-        load_design(args.design),
-        args.out,
-        resolution_deg=args.resolution,
-        progress=not args.quiet,
-        **limits(args),
-    )
+    design = load_design(args.design)
+    try:
+        carving, files = carve_design(
+            design,
+            args.out,
+            resolution_deg=args.resolution,
+            progress=not args.quiet,
+            **limits(args),
+        )
+    except ValueError as exc:
+        raise option_error(exc, {"out": "--out", "resolution_deg": "--resolution"}) from None
     print("joint  requested (deg)     achieved (deg)      stopped by (upper side)")
     for j in carving.joints:
         req = [math.degrees(v) for v in j.requested]

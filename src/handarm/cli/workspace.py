@@ -70,10 +70,15 @@ def cmd_study(args: argparse.Namespace) -> int:
     """Trade study: carve and score every design of STUDY.toml (resumable, on Dask)."""
     from tqdm import tqdm
 
+    from handarm._outdir import check_out_dir
     from handarm.workspace.study_file import load_study
     from handarm.workspace.study_run import run_study
 
     study = load_study(args.study)
+    try:
+        check_out_dir(args.out)  # before the bars: a refusal is one line
+    except ValueError as exc:
+        raise option_error(exc, {"out": "--out"}) from None
     with (
         tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar,
         tqdm(desc="sensitivity", unit="map", disable=args.quiet, leave=False) as sens_bar,
@@ -96,7 +101,9 @@ def cmd_study(args: argparse.Namespace) -> int:
                 sensitivity_progress=sens_tick,
             )
         except ValueError as exc:
-            raise option_error(exc, {"scheduler": "--scheduler", "workers": "--workers"}) from None
+            raise option_error(
+                exc, {"scheduler": "--scheduler", "workers": "--workers", "out": "--out"}
+            ) from None
     rows = result["rows"]
     print(f"{result['computed']} designs computed, {result['reused']} found on disk")
     best = max(rows, key=lambda r: r["score"])

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from handarm._io import write_text_atomic
+from handarm._outdir import check_out_dir
 from handarm.design import ArmDesign
 from handarm.workspace._dask import close_client, open_client
 from handarm.workspace.opt_file import CONSTRAINTS, OptFile
@@ -520,7 +521,7 @@ def run_optimization(
     if workers is not None and workers < 1:
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
     check_sampler(opt, sampler)
-    out = Path(out)
+    out = check_out_dir(out)
     total = trials or opt.trials
     study = open_study(opt, out, sampler)
     finished = sum(counted(t) for t in study.get_trials(deepcopy=False))
