@@ -258,6 +258,29 @@ def test_a_voxel_in_millimetres_is_refused(command, tmp_path, capsys):
     check_resources(ArmDesign(), voxel=0.07, directions=36)  # 0.075 is the bound
 
 
+@pytest.mark.parametrize(
+    ("command", "text", "key"),
+    [
+        ("optimize", "trials = 2\n[map]\nvoxel = 50\n[variables]\n"
+         "pulley_radius_2 = {low = 0.006, high = 0.012}\n", "map.voxel"),
+        ("optimize", "trials = 2\n[map]\nfull_voxel = 30\n[variables]\n"
+         "pulley_radius_2 = {low = 0.006, high = 0.012}\n", "map.full_voxel"),
+        ("study", "voxel = 30\n[grid]\nlimit_deg_2 = [120, 150]\n", "voxel"),
+    ],
+)  # fmt: skip
+def test_a_voxel_in_millimetres_is_refused_in_study_and_optimize_files(
+    tmp_path, capsys, command, text, key
+):
+    """[map] voxel = 50 in an optimize file ran every trial into a numpy broadcast error
+    and left trials.csv, front.json and pictures/ behind: refused at load, naming the key."""
+    path = tmp_path / "f.toml"
+    path.write_text(text)
+    code, _, err = run(capsys, command, path, "--out", tmp_path / "o")
+    one_line_error(err, code)
+    assert f"{path}: {key}: " in err and "in metres" in err, err
+    assert not (tmp_path / "o").exists()
+
+
 def test_no_empty_sensitivity_bar_without_the_screen(tmp_path, capsys):
     """--no-sensitivity drew an empty 'sensitivity screen: 0map' bar on stderr."""
     args = ["--voxel", "0.05", "--directions", "36", "--out"]

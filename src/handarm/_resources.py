@@ -64,6 +64,19 @@ def estimate(
 _VOXELS_ACROSS = 4
 
 
+def check_voxel(design: ArmDesign, voxel: float, name: str = "voxel") -> None:
+    """ValueError naming ``name`` if the voxel is coarser than the arm's reach over 4.
+
+    A voxel given in millimetres (30 for 0.03) made a map of one voxel, all scores 0.
+    """
+    reach = float(sum(design.lengths[1:]))
+    if voxel > reach / _VOXELS_ACROSS:
+        raise ValueError(
+            f"{name}: {voxel:g} m is coarser than the arm's reach ({reach:.3f} m) over "
+            f"{_VOXELS_ACROSS}; the edge is in metres (0.01 is 1 cm)"
+        )
+
+
 def _minutes(seconds: float) -> str:
     """Minutes to two significant figures below ten (0.34, 2.5), whole above (12, 130)."""
     minutes = seconds / 60
@@ -87,13 +100,8 @@ def check_resources(
     the user gave.
     """
     _check_settings(voxel, directions, resolution_deg)
-    reach = float(sum(design.lengths[1:]))
-    if voxel is not None and voxel > reach / _VOXELS_ACROSS:
-        # a voxel given in millimetres (30 for 0.03) made a map of one voxel, all scores 0
-        raise ValueError(
-            f"voxel: {voxel:g} m is coarser than the arm's reach ({reach:.3f} m) over "
-            f"{_VOXELS_ACROSS}; the edge is in metres (0.01 is 1 cm)"
-        )
+    if voxel is not None:
+        check_voxel(design, voxel)
     memory, seconds = estimate(
         design, voxel=voxel, directions=directions, resolution_deg=resolution_deg
     )

@@ -53,6 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handarm._resources import check_voxel
 from handarm.design import ArmDesign
 from handarm.workspace.maps import MIN_WIDTH, direction_set
 from handarm.workspace.study_file import apply_params
@@ -321,6 +322,10 @@ def load_opt(path: str | os.PathLike[str]) -> OptFile:
     if sampler not in _SAMPLERS:
         raise ValueError(f"{path}: sampler: expected one of {list(_SAMPLERS)}, got {sampler!r}")
     constraints, poses = _constraints(path, data.get("constraints", {}))
+    settings = _map(path, data.get("map", {}))
+    for key in ("voxel", "full_voxel"):
+        if settings[key] is not None:  # the base design's reach: millimetres show at once
+            check_voxel(base, settings[key], f"{path}: map.{key}")
     return OptFile(
         path=path,
         name=str(data.get("name", path.stem)),
@@ -328,7 +333,7 @@ def load_opt(path: str | os.PathLike[str]) -> OptFile:
         sampler=sampler,
         trials=_int(f"{path}: trials", data.get("trials", 20), 1),
         seed=_int(f"{path}: seed", data.get("seed", 0), 0),
-        map=_map(path, data.get("map", {})),
+        map=settings,
         variables=_variables(path, base, data.get("variables")),
         objectives=_objectives(path, data.get("objectives")),
         constraints=constraints,

@@ -40,6 +40,7 @@ import tomllib
 from pathlib import Path
 
 from handarm._io import read_regular_bytes
+from handarm._resources import check_voxel
 from handarm.design import ArmDesign
 from handarm.workspace.maps import MIN_WIDTH, direction_set
 from handarm.workspace.scores import DEFAULT_WEIGHTS
@@ -146,6 +147,8 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         if not isinstance(data["design"], str):
             raise ValueError(f"{path}: design: expected a file name, got {data['design']!r}")
         base = ArmDesign.from_toml((path.parent / data["design"]).resolve())
+    if "voxel" in settings:  # the base design's reach: millimetres show at once
+        check_voxel(base, settings["voxel"], f"{path}: voxel")
     designs = []
     if "grid" in data:
         grid = data["grid"]
