@@ -46,5 +46,7 @@ def drum_hexagon_problem(design) -> str | None:
     return (
         f"motor_pulley_radius: {rho:g} mm leaves {bottom - MIN_HEX_R - slack:.2f} mm of "
         f"drum wall around the smallest driving hexagon ({MIN_HEX_R:.1f} mm; needs "
-        f"{DRUM_WALL:g} mm)"
+        f"{DRUM_WALL:g} mm) with cable_diameter {design.cable_diameter * _MM:g} mm and "
+        f"clearance {design.clearance * _MM:g} mm: a larger motor pulley, or a thinner "
+        "cable or smaller clearance"
     )
