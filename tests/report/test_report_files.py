@@ -63,6 +63,67 @@ def test_report_of_something_else_is_a_one_line_error(tmp_path, capsys, make):
     assert not (folder / "report.html").exists()
 
 
+@pytest.mark.parametrize("damage", ["column", "encoding", "map"])
+def test_a_damaged_folder_is_a_one_line_error_naming_the_file(
+    tmp_path, capsys, study_dir, build_dir, damage
+):
+    """A results.csv cut short gave a KeyError traceback; a non-UTF-8 one and a corrupt
+    workspace.npz gave numpy's or the codec's words without the file (a docs reader)."""
+    import shutil
+
+    folder = tmp_path / "f"
+    if damage == "map":
+        shutil.copytree(build_dir, folder)
+        broken = folder / "workspace" / "workspace.npz"
+        broken.write_text("x\n")
+    else:
+        shutil.copytree(study_dir, folder)
+        broken = folder / "results.csv"
+        if damage == "column":
+            lines = broken.read_text().splitlines()
+            broken.write_text("\n".join(",".join(x.split(",")[:3]) for x in lines) + "\n")
+        else:
+            broken.write_bytes(b"\xff\xfe" + broken.read_bytes())
+    (folder / "report.html").unlink(missing_ok=True)
+    assert main(["report", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(broken) in err and "Traceback" not in err, err
+    assert not (folder / "report.html").exists()
+
+
+def test_links_table_shows_each_centre_of_mass(build_dir, tmp_path):
+    """The guide promised the centre of mass among the links table's numbers; it was left
+    out (a vector, not a scalar)."""
+    import shutil
+
+    folder = tmp_path / "b"
+    shutil.copytree(build_dir, folder)
+    page = write_report(folder).read_text()
+    assert "centre of mass (mm, link frame)" in page
+    for k in range(7):
+        com = json.loads((folder / "links" / f"l{k}.json").read_text())["center_of_mass_m"]
+        assert ", ".join(f"{v * 1e3:.2f}" for v in com) in page, k
+
+
+def test_report_of_an_unfinished_build_says_so(build_dir, tmp_path, capsys):
+    """An interrupted build's folder and a deleted mesh gave a page with no word of either
+    (the 3D arm silently lacked l3)."""
+    import shutil
+
+    from handarm._outdir import INCOMPLETE
+
+    folder = tmp_path / "b"
+    shutil.copytree(build_dir, folder)
+    (folder / INCOMPLETE).touch()
+    (folder / "meshes" / "l3.stl").unlink()
+    assert main(["report", str(folder)]) == 0
+    out, err = capsys.readouterr()
+    assert "did not finish" in err and out.strip() == str(folder / "report.html")
+    page = (folder / "report.html").read_text()
+    assert "This build did not finish" in page
+    assert "Missing from this folder, so not drawn: meshes/l3.stl" in page
+
+
 def test_report_kind(build_dir, tmp_path):
     assert report_kind(build_dir) == "build"
     (tmp_path / "results.csv").write_text("name\n")

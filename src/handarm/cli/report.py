@@ -7,9 +7,19 @@ import argparse
 
 def cmd_report(args: argparse.Namespace) -> int:
     """Write DIR/report.html from what DIR holds; optionally open it."""
+    import sys
+    from pathlib import Path
+
+    from handarm._outdir import INCOMPLETE
     from handarm.report import write_report
 
     path = write_report(args.dir)
+    if (Path(args.dir) / INCOMPLETE).exists():
+        print(
+            f"handarm report: warning: {args.dir} holds {INCOMPLETE}: the build did not finish "
+            "(the page says so)",
+            file=sys.stderr,
+        )
     print(path)
     if args.open:
         import webbrowser

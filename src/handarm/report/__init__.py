@@ -60,10 +60,15 @@ def write_report(folder: str | os.PathLike[str]) -> Path:
         If the folder is not one of those (the message says what is missing).
     """
     kind = report_kind(folder)
-    if kind == "build":
-        from handarm.report.build_page import build_report
+    try:
+        if kind == "build":
+            from handarm.report.build_page import build_report
 
-        return build_report(folder)
-    from handarm.report.study_page import study_report
+            return build_report(folder)
+        from handarm.report.study_page import study_report
 
-    return study_report(folder, kind)
+        return study_report(folder, kind)
+    except KeyError as exc:  # a file of the folder lacks what handarm writes into it
+        raise ValueError(
+            f"{folder}: a file of the folder lacks {exc} (edited, or from another version?)"
+        ) from None

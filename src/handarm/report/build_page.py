@@ -21,10 +21,12 @@ import csv
 import html
 import json
 import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from handarm._outdir import INCOMPLETE
 from handarm.report._data import display_mesh, read_json, read_urdf, unit_of
 from handarm.report._live import COLLISION_JS, collision_data
 from handarm.report._page import Page
@@ -192,6 +194,12 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
     links = [model.root] + [j["child"] for j in model.joints]
     fig = go.Figure()
     visuals = []
+    missing = [v["mesh"] for v in model.visuals if not (urdf_path.parent / v["mesh"]).exists()]
+    if missing:
+        page.text(
+            f"Missing from this folder, so not drawn: {', '.join(missing)} (named by "
+            f"{urdf_path.name}): the 3D arm below lacks those links."
+        )
     for vis in model.visuals:
         mesh_path = urdf_path.parent / vis["mesh"]
         if not mesh_path.exists():
@@ -321,8 +329,16 @@ def _link_tables(page: Page, out: Path, carve: dict) -> None:
         label, unit = unit_of(key)
         headers.append(f"{label} ({unit})")
     rows = [[d.get("link", "")] + [d.get(key) for key in scalar_keys] for d in links]
+    text_columns = (0,)
+    if any("center_of_mass_m" in d for d in links):
+        # the one vector of the files a reader wants beside the mass: in mm, in the link's frame
+        headers.append("centre of mass (mm, link frame)")
+        text_columns = (0, len(headers) - 1)
+        for row, d in zip(rows, links, strict=True):
+            com = d.get("center_of_mass_m")
+            row.append("" if com is None else ", ".join(f"{v * 1e3:.2f}" for v in com))
     page.text("Per link (SI units as recorded in links/*.json):")
-    page.table(headers, rows)
+    page.table(headers, rows, text_columns=text_columns)
     page.text("Per joint (limits in degrees; what stops each side of the carved range):")
     page.table(
         [
@@ -433,8 +449,12 @@ def _workspace_section(page: Page, out: Path) -> None:
     if npz.exists():
         from handarm.report._plots import workspace_figures
 
-        with np.load(npz) as z:
-            figs = workspace_figures(z["centres"], z["index"], float(z["handle"]))
+        try:
+            with np.load(npz) as z:
+                centres, index, handle = z["centres"], z["index"], float(z["handle"])
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            raise ValueError(f"{npz}: not a workspace map that handarm wrote ({exc})") from None
+        figs = workspace_figures(centres, index, handle)
         scene = scores.get("scene") if scores else None
         if scene:
             from handarm.report._plots import obstacle_traces
@@ -514,6 +534,11 @@ def build_report(out: str | Path) -> Path:
     design = ArmDesign.from_toml(out / "design.toml")
     carve = read_json(out / "carve.json")
     page = Page(f"handarm build report: {design.name}")
+    if (out / INCOMPLETE).exists():
+        page.text(
+            f"This build did not finish ({INCOMPLETE} is in the folder): some files below "
+            "may be missing or left from an earlier build. Run handarm build again."
+        )
     page.text(
         "Everything below is read from the files in this folder; lengths in the 3D views "
         "are millimetres, table values in the units their headers name."

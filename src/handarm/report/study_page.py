@@ -16,6 +16,7 @@ import dataclasses
 import itertools
 import json
 import math
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -108,9 +109,22 @@ def _number(text: str):
     return int(v) if v.is_integer() and "." not in text and "e" not in text.lower() else v
 
 
-def _read_csv(path: Path) -> list[dict]:
-    with path.open(newline="") as fh:
-        return [{k: _number(v) for k, v in row.items()} for row in csv.DictReader(fh)]
+def _read_csv(path: Path, columns: Iterable[str] = ()) -> list[dict]:
+    """The rows of a results table, numbers as numbers; ValueError naming the file.
+
+    ``columns``: those the page needs (a table from another tool, or cut short, lacks them).
+    """
+    try:
+        with path.open(newline="") as fh:
+            reader = csv.DictReader(fh)
+            rows = [{k: _number(v) for k, v in row.items()} for row in reader]
+            header = reader.fieldnames or []
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"{path}: not a readable CSV table ({exc})") from None
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise ValueError(f"{path}: column {missing[0]!r} missing (columns: {list(header)})")
+    return rows
 
 
 def hypervolume(points, reference) -> float:
@@ -197,7 +211,7 @@ class _Table:
 
 
 def _study_table(folder: Path) -> _Table:
-    rows = _read_csv(folder / "results.csv")
+    rows = _read_csv(folder / "results.csv", ["name", *(o.key for o in STUDY_OBJECTIVES)])
     records = {}
     for path in sorted((folder / "designs").glob("*.json")):
         data = read_json(path)
@@ -220,7 +234,7 @@ def _study_table(folder: Path) -> _Table:
 
 
 def _optimize_table(folder: Path) -> _Table:
-    rows = _read_csv(folder / "trials.csv")
+    rows = _read_csv(folder / "trials.csv", ["trial"])
     front = read_json(folder / "front.json") or {}
     objectives = tuple(
         Objective(o["key"], o["direction"], o.get("unit", ""), o.get("reference"))
