@@ -396,6 +396,21 @@ def test_an_empty_out_is_refused_not_the_working_folder(tmp_path, capsys, monkey
     assert listing(tmp_path) == before
 
 
+@pytest.mark.parametrize("command", ["study", "optimize"])
+def test_a_scheduler_that_is_no_address_is_named(tmp_path, capsys, command):
+    """--scheduler foo said only "missing port number in address 'foo'"."""
+    if command == "study":
+        path = tmp_path / "s.toml"
+        path.write_text("voxel = 0.05\ndirections = 16\n[grid]\nlimit_deg_2 = [120, 150]\n")
+    else:
+        path = ROOT / "examples" / "optimize.toml"
+    code, _, err = run(
+        capsys, command, path, "--out", tmp_path / "o", "--scheduler", "foo", "--quiet"
+    )
+    one_line_error(err, code)
+    assert "--scheduler: 'foo' is not a scheduler address" in err, err
+
+
 def test_build_folder_lock_marker_manifest_and_cleanup(tmp_path):
     out = tmp_path / "b"
     with build_folder(out, {"name": "one"}) as files:

@@ -38,6 +38,10 @@ def open_client(scheduler: str | None, workers: int | None, default_workers: int
         client = Client(scheduler, timeout="10s")
     except (OSError, TimeoutError) as exc:
         raise RuntimeError(f"scheduler: cannot reach {scheduler}: {exc}") from None
+    except ValueError as exc:  # not an address at all ("foo": no port)
+        raise ValueError(
+            f"scheduler: {scheduler!r} is not a scheduler address (tcp://HOST:PORT): {exc}"
+        ) from None
     n = workers or max(1, len(client.scheduler_info().get("workers", {})))
     return client, None, None, n
 
