@@ -21,9 +21,9 @@ from handarm.firmware_bridge.emulator import EmulatedBus
 
 def main() -> None:
     d = handarm.ArmDesign()
-    out = Path(tempfile.mkdtemp())
-    files = handarm.pipeline.export_controller(d, out / "controller")
-    print("controller files:", ", ".join(p.name for p in files))
+    with tempfile.TemporaryDirectory() as tmp:  # the files are shown, not kept
+        files = handarm.pipeline.export_controller(d, Path(tmp) / "controller")
+        print("controller files:", ", ".join(p.name for p in files))
     # six emulated MX-64T whose horns sit wherever they were assembled
     with EmulatedBus(positions={1: 2000, 2: 100, 3: 3000, 4: 2048, 5: 4000, 6: 10}) as emu:
         # a software bus answers from a thread: give it the timeout it asks for

@@ -35,6 +35,8 @@ def find_chromium() -> tuple[str, str] | None:
 def headless_chromium(width: int = 1300, height: int = 1800):
     """A selenium WebDriver on headless Chromium with a fresh profile; the caller quits it.
 
+    Quitting it removes the profile's temporary folder.
+
     Parameters
     ----------
     width, height : int
@@ -59,10 +61,25 @@ def headless_chromium(width: int = 1300, height: int = 1800):
     for flag in CHROMIUM_FLAGS:
         opts.add_argument(flag)
     opts.add_argument(f"--window-size={width},{height}")
-    opts.add_argument(f"--user-data-dir={tempfile.mkdtemp(prefix='handarm-chromium-')}")
+    profile = tempfile.mkdtemp(prefix="handarm-chromium-")
+    opts.add_argument(f"--user-data-dir={profile}")
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    drv = webdriver.Chrome(options=opts, service=Service(found[1]))
+    try:
+        drv = webdriver.Chrome(options=opts, service=Service(found[1]))
+    except BaseException:
+        shutil.rmtree(profile, ignore_errors=True)
+        raise
     drv.set_script_timeout(120)  # software WebGL on a busy machine
+    quit_browser = drv.quit
+
+    def quit_and_remove_profile() -> None:
+        # the profile (2.5 MB) was left in /tmp after every screenshot and test run
+        try:
+            quit_browser()
+        finally:
+            shutil.rmtree(profile, ignore_errors=True)
+
+    drv.quit = quit_and_remove_profile
     return drv
 
 
