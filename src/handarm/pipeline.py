@@ -30,6 +30,7 @@ from handarm.firmware_bridge.export import (
     write_controller_json,
     write_header,
 )
+from handarm.ik.exact import check_clearance
 from handarm.summary import design_summary
 from handarm.workspace.report import makes_sensitivity, write_workspace_outputs
 
@@ -199,6 +200,7 @@ def map_workspace(
     list of Path
     """
     check_design(design)
+    check_clearance(clearance, scene)
     _check_map(design, voxel, directions, sensitivity, scene, max_memory, max_seconds)
     if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
         raise ValueError(f"threshold: expected a number in (0, 1], got {threshold!r}")
@@ -367,6 +369,7 @@ def build(
     """
     check_design(design)
     check_carvable(design)
+    check_clearance(clearance, scene)  # before the carving: a minute of work
     out = check_out_dir(out)
     limits = {"max_memory": max_memory, "max_seconds": max_seconds}
     _check_map(design, voxel, directions, True, scene, max_memory, max_seconds)

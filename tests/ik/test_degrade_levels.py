@@ -404,9 +404,12 @@ def test_min_width_is_a_number_or_a_named_error(paper, bad):
 
 
 @pytest.mark.parametrize("bad", [-3, 5.0, np.nan, "0.001", True, 1e-3])
-def test_clearance_is_checked_with_or_without_a_scene(paper, bad):
+def test_clearance_is_checked_with_or_without_a_scene(paper, bad, tmp_path):
     """Without a scene there is nothing to keep a clearance from: any value but 0 is refused
-    (it was ignored, NaN included), as the CLI refuses --clearance without --scene."""
+    (it was ignored, NaN included), as the CLI refuses --clearance without --scene; a build
+    or a map refuses it before any work."""
+    from handarm.pipeline import map_workspace
+
     p, e = np.array([0.2, 0.05, 0.05]), np.array([1.0, 0, 0.3])
     P, E = p[None], e[None]
     for call in (
@@ -414,9 +417,12 @@ def test_clearance_is_checked_with_or_without_a_scene(paper, bad):
         lambda: ik.solve_batch(paper, P, E, clearance=bad),
         lambda: ik.count_solutions(paper, P, E, clearance=bad),
         lambda: ik.warm_up(paper, clearance=bad),
+        lambda: handarm.build(paper, tmp_path / "b", clearance=bad),
+        lambda: map_workspace(paper, tmp_path / "w", clearance=bad),
     ):
         with pytest.raises(ValueError, match="^clearance: "):
             call()
+    assert list(tmp_path.iterdir()) == []
     assert ik.count_solutions(paper, P, E, clearance=0.0).shape == (1,)
 
 

@@ -29,6 +29,7 @@ from handarm._io import write_bytes_atomic
 from handarm.collision import envelopes
 from handarm.design import ArmDesign
 from handarm.ik import count_solutions
+from handarm.ik.exact import check_clearance
 
 __all__ = [
     "MIN_WIDTH",
@@ -274,6 +275,7 @@ def reachability_map(
 
     if isinstance(voxel, bool) or not isinstance(voxel, (int, float)) or not voxel > 0:
         raise ValueError(f"voxel: expected a positive number of metres, got {voxel!r}")
+    check_clearance(clearance, scene)
     off = np.asarray(offset, float)
     if off.shape != (3,) or not np.isfinite(off).all():
         raise ValueError(f"offset: expected 3 finite numbers (m), got {offset!r}")
