@@ -672,7 +672,8 @@ def test_ctrl_c_inside_a_constructor_leaves_no_teardown_noise(tmp_path):
 # -- 2. carving never writes an unprintable part ---------------------------------------------
 
 EXTREME = [
-    {"clearance": 0.001, "cheek_thickness": 0.002},
+    # the largest clearance: a 9 mm motor pulley, as 8 mm leaves its drum too thin (refused)
+    {"clearance": 0.001, "cheek_thickness": 0.002, "motor_pulley_radius": 0.009},
     {"axle_diameter": 0.0139},  # the thinnest bore wall the bounds allow
     {"cheek_thickness": 0.0008, "clearance": 0.0004},
     {"hub_radius": 0.024},  # fits the 50 mm links, but its sweeps cut them apart
