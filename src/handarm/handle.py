@@ -44,7 +44,6 @@ from handarm._pulley import (
     HEAD_SINK,
     HORN_HEAD_R,
     drum_hexagon,
-    drum_hexagon_problem,
 )
 from handarm.design import ArmDesign
 from handarm.links import (
@@ -292,11 +291,7 @@ def motor_runs(design: ArmDesign) -> tuple[float, ...]:
     (``handarm.tendons.cut_lengths``). The one source of the cut lengths in the bill of
     materials, ``tendons.json``, the summary and the report.
     """
-    return _runs(motor_layout(design))
-
-
-def _runs(places) -> tuple[float, ...]:
-    return tuple((p.distance + TRAVEL) / MM for p in places)
+    return tuple((p.distance + TRAVEL) / MM for p in motor_layout(design))
 
 
 @functools.lru_cache(maxsize=16)
@@ -450,13 +445,8 @@ def pulley_parts(design: ArmDesign) -> tuple[Manifold, Manifold]:
     held by an M3 screw into the boss. The hexagon is sized by the drum (1.2 mm of drum wall
     under the groove) and kept inside the ring of counterbores, so the drum's radius does not
     depend on the horn's bolt circle. The drum's groove holds the cable's centre at exactly
-    ``design.motor_pulley_radius``.
-
-    Raises
-    ------
-    ValueError
-        If the groove leaves no room for a hexagon of at least 3 mm across its corners'
-        radius with 1.2 mm of drum wall around it (names ``motor_pulley_radius``).
+    ``design.motor_pulley_radius``. A design whose groove leaves no room for the hexagon
+    does not load (``handarm._pulley.drum_hexagon_problem``).
     """
     servo = design.servo
     c = design.clearance * MM
@@ -465,10 +455,7 @@ def pulley_parts(design: ArmDesign) -> tuple[Manifold, Manifold]:
     groove_w = _groove_width(design)
     drum_h = 2 * DRUM_LIP + groove_w
     bottom = design.motor_pulley_radius * MM - design.cable_diameter * MM / 2
-    problem = drum_hexagon_problem(design)  # refused when the design loads: kept for safety
-    if problem is not None:
-        raise ValueError(problem)
-    hex_r, slack = drum_hexagon(design)
+    hex_r, slack = drum_hexagon(design)  # one fits: a design without room does not load
     socket_r = hex_r + slack
     # the flange reaches 1.2 mm past the counterbores (a little wider than the horn)
     flange = _cyl(max(horn_r, bolt_r + HORN_HEAD_R + 0.2 + 1.2), 0.0, FLANGE)
@@ -527,11 +514,6 @@ class Handle:
     com: np.ndarray
     mass: float
     masses: dict
-
-    @property
-    def motor_runs(self) -> tuple[float, ...]:
-        """Each cable's run beside the arm (m, cables 1..6): see ``motor_runs``."""
-        return _runs(self.places)
 
     @property
     def balance(self) -> np.ndarray:

@@ -232,7 +232,7 @@ def tendon_report(
         Check exactly these poses (rad) instead.
     motor_run : float or tuple of 6 float
         Each cable's run beside the arm for its cut length (m, see ``cut_lengths``): a
-        build passes its handle's (``handarm.handle.Handle.motor_runs``), as the bill of
+        build passes its handle's (``handarm.handle.motor_runs``), as the bill of
         materials does.
 
     Returns

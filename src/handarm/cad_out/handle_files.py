@@ -26,7 +26,7 @@ from handarm._io import write_bytes_atomic, write_text_atomic
 from handarm.cad_out.pictures import _COLOURS, _draw, _frame_axes
 from handarm.carve.carving import CarveResult
 from handarm.carve.properties import to_trimesh
-from handarm.handle import BOSS, NUT_BLOCK, TRAVEL, Handle
+from handarm.handle import BOSS, NUT_BLOCK, TRAVEL, Handle, motor_runs
 from handarm.kinematics import joint_frames
 from handarm.links import MAST_CLAMP, MAST_SCREW_DEPTH, MM, joint_geometry, mast_screws
 
@@ -185,7 +185,7 @@ def bom_rows(h: Handle, carving: CarveResult) -> list[dict]:
         f"M3 x {MAST_CLAMP + MAST_SCREW_DEPTH - 2:.0f} socket head",
         note="up through the bed's mast into l0's pilot holes (it cuts its own thread)",
     )
-    for c, cut in enumerate(cut_lengths(d, motor_run=h.motor_runs)):
+    for c, cut in enumerate(cut_lengths(d, motor_run=motor_runs(d))):
         add(
             f"cable {c + 1}",
             "bought",

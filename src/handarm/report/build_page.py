@@ -201,9 +201,9 @@ def _arm_section(page: Page, out: Path, design, carve: dict) -> None:
             f"{urdf_path.name}): the 3D arm below lacks those links."
         )
     for vis in model.visuals:
-        mesh_path = urdf_path.parent / vis["mesh"]
-        if not mesh_path.exists():
+        if vis["mesh"] in missing:
             continue
+        mesh_path = urdf_path.parent / vis["mesh"]
         v, f = display_mesh(mesh_path, vis["origin"], vis["scale"])
         k = links.index(vis["link"])
         chain_links = [model.root] + [j["child"] for j in model.joints if j["q"] >= 0]
