@@ -404,11 +404,14 @@ def test_a_scheduler_that_is_no_address_is_named(tmp_path, capsys, command):
         path.write_text("voxel = 0.05\ndirections = 16\n[grid]\nlimit_deg_2 = [120, 150]\n")
     else:
         path = ROOT / "examples" / "optimize.toml"
-    code, _, err = run(
-        capsys, command, path, "--out", tmp_path / "o", "--scheduler", "foo", "--quiet"
-    )
-    one_line_error(err, code)
-    assert "--scheduler: 'foo' is not a scheduler address" in err, err
+    for address in ("foo", "tcp://host:port", ""):
+        code, _, err = run(
+            capsys, command, path, "--out", tmp_path / "o", "--scheduler", address, "--quiet"
+        )
+        one_line_error(err, code)
+        assert f"--scheduler: {address!r} is not a scheduler address" in err, err
+        # refused before anything was written (optimize left an empty journal.log)
+        assert not (tmp_path / "o").exists()
 
 
 def test_build_folder_lock_marker_manifest_and_cleanup(tmp_path):

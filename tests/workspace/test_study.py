@@ -1,5 +1,6 @@
 import csv
 import json
+import tempfile
 
 import pytest
 
@@ -60,7 +61,11 @@ def test_bad_study_files_name_the_problem(tmp_path, text, message):
         load_study(path)
 
 
-def test_run_resume_and_worker_count(study_file, tmp_path):
+def test_run_resume_and_worker_count(study_file, tmp_path, monkeypatch):
+    # Dask's scratch (locks, worker folders) went to the system's temporary folder
+    system_tmp = tmp_path / "system-tmp"
+    system_tmp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(system_tmp))
     study = load_study(study_file)
     # an interrupted run: one design finished
     first = run_study(study, tmp_path / "a", workers=1, stop_after=1)
@@ -97,6 +102,9 @@ def test_run_resume_and_worker_count(study_file, tmp_path):
         assert (tmp_path / "a" / "pictures" / name).read_bytes()[:4] == b"\x89PNG"
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["finished"] == 3
+    # nothing outside --out, and no scratch left inside it
+    assert list(system_tmp.iterdir()) == []
+    assert not (tmp_path / "a" / ".dask-scratch").exists()
     # new weights: nothing recomputed, every score recomputed from the stored measurements
     study_file.write_text(STUDY + "\n[weights]\nmass = 5.0\n")
     reweighted = run_study(load_study(study_file), tmp_path / "a", workers=1)

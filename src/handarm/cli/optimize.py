@@ -21,12 +21,14 @@ def cmd_optimize(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from handarm._outdir import check_out_dir
+    from handarm.workspace._dask import check_scheduler
     from handarm.workspace.opt_file import load_opt
     from handarm.workspace.optimize import build_front, check_sampler, run_optimization
 
     opt = load_opt(args.opt)
     try:
         check_sampler(opt, args.sampler)
+        check_scheduler(args.scheduler)
         check_out_dir(args.out)  # before the bar: a refusal is one line
     except ValueError as exc:
         raise option_error(exc, _OPTIONS) from None

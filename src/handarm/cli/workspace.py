@@ -71,14 +71,16 @@ def cmd_study(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from handarm._outdir import check_out_dir
+    from handarm.workspace._dask import check_scheduler
     from handarm.workspace.study_file import load_study
     from handarm.workspace.study_run import run_study
 
     study = load_study(args.study)
     try:
+        check_scheduler(args.scheduler)
         check_out_dir(args.out)  # before the bars: a refusal is one line
     except ValueError as exc:
-        raise option_error(exc, {"out": "--out"}) from None
+        raise option_error(exc, {"out": "--out", "scheduler": "--scheduler"}) from None
     with (
         tqdm(total=len(study.designs), desc=study.name, unit="design", disable=args.quiet) as bar,
         tqdm(desc="sensitivity", unit="map", disable=args.quiet, leave=False) as sens_bar,

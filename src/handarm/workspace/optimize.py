@@ -39,7 +39,7 @@ import numpy as np
 from handarm._io import write_text_atomic
 from handarm._outdir import check_out_dir
 from handarm.design import ArmDesign
-from handarm.workspace._dask import close_client, open_client
+from handarm.workspace._dask import check_scheduler, close_client, open_client
 from handarm.workspace.opt_file import CONSTRAINTS, OptFile
 
 __all__ = [
@@ -521,6 +521,7 @@ def run_optimization(
     if workers is not None and workers < 1:
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
     check_sampler(opt, sampler)
+    check_scheduler(scheduler)
     out = check_out_dir(out)
     total = trials or opt.trials
     study = open_study(opt, out, sampler)
@@ -532,7 +533,7 @@ def run_optimization(
         progress(finished, total, *_front_stats(opt, study))
     new = 0
     if todo:
-        new = _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
+        new = _run_trials(opt, study, out, todo, scheduler, workers, progress, finished, total)
     result = write_outputs(opt, study, out)
     from handarm.report import write_report  # plotly: loaded only for the report
 
@@ -541,13 +542,13 @@ def run_optimization(
     return {"new": new, "finished": finished + new, "repeats": repeats, **result}
 
 
-def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total) -> int:
+def _run_trials(opt, study, out, todo, scheduler, workers, progress, finished, total) -> int:
     import optuna
     from dask.distributed import as_completed
 
     dists = _distributions(opt)
     poses = None if opt.task_poses is None else opt.task_poses.tolist()
-    client, cluster, threads, inflight_max = open_client(scheduler, workers)
+    client, cluster, threads, inflight_max = open_client(scheduler, workers, out=out)
     asked = done = 0
     running = {}
 
@@ -606,7 +607,7 @@ def _run_trials(opt, study, todo, scheduler, workers, progress, finished, total)
                 progress(finished, total, *_front_stats(opt, study))
             ask_one(ac)
     finally:
-        close_client(client, cluster)
+        close_client(client, cluster, out)
     return done
 
 

@@ -23,7 +23,7 @@ from handarm._resources import check_resources
 from handarm.carve import carve
 from handarm.carve.properties import link_properties
 from handarm.design import ArmDesign
-from handarm.workspace._dask import close_client, open_client
+from handarm.workspace._dask import check_scheduler, close_client, open_client
 from handarm.workspace.maps import reachability_map
 from handarm.workspace.plots import sensitivity_picture
 from handarm.workspace.scores import map_scores
@@ -127,6 +127,7 @@ def run_study(
     ):
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
     check_resources(study.base, voxel=study.voxel, directions=study.directions)
+    check_scheduler(scheduler)
     out = check_out_dir(out)
     settings = study_settings(study)
     pending, reused = [], 0
@@ -147,7 +148,7 @@ def run_study(
     need_sens = sens.get("key") != sens_key and stop_after is None
     if pending or need_sens:
         client, cluster, threads, _slots = open_client(
-            scheduler, workers, min(2, max(1, len(pending)))
+            scheduler, workers, min(2, max(1, len(pending))), out=out
         )
         try:
             if pending:
@@ -155,7 +156,7 @@ def run_study(
             if need_sens:
                 sens = study_sensitivity(study, out, client, sensitivity_progress)
         finally:
-            close_client(client, cluster)
+            close_client(client, cluster, out)
     rows = study_table(study, out)
     if rows:
         from handarm.report import write_report  # plotly: loaded only for the report
