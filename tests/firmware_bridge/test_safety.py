@@ -598,6 +598,33 @@ def test_follow_steps_slowly_where_the_answer_jumps_to_another_family(design):
     assert np.abs(motor_from_joint(design, step.q - q)).max() == pytest.approx(allowed, rel=1e-9)
 
 
+def test_a_clearance_without_a_scene_is_refused_before_the_bus_is_touched(design):
+    """follow_step, Follower and follow took clearance=0.003 without a scene and kept
+    nothing from nothing: a clearance meant for something else, silently ignored."""
+    from handarm.firmware_bridge.follow import Follower, TargetSource, follow, follow_step
+    from handarm.firmware_bridge.motion import MotionLimits
+    from handarm.scene import Scene
+
+    limits, dt = MotionLimits(design), 0.01
+    q = np.radians(GOAL_DEG)
+    target = handarm.forward(design, q)
+    for bad, why in ((0.003, "without a scene"), (float("nan"), r"\[0, 1\] m"), (-1e-3, "")):
+        with pytest.raises(ValueError, match=rf"^clearance: .*{why}"):
+            follow_step(design, q, target, dt, limits, clearance=bad)
+        with pytest.raises(ValueError, match=rf"^clearance: .*{why}"):
+            Follower(design, dt, limits, clearance=bad)
+    # with a scene the same clearance is kept, not refused
+    ball = Scene.empty().with_sphere([0.0, 0.0, 0.5], 0.01, name="far")
+    assert follow_step(design, q, target, dt, limits, ball, 0.003).reached_dof == 5
+    line = json.dumps({"p": list(target[0]), "e": list(target[1])})
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        before = len(emu.log)
+        with pytest.raises(ValueError, match="^clearance: .*without a scene"):
+            follow(bus, design, cal, TargetSource([line]), max_periods=5, clearance=0.003)
+        assert len(emu.log) == before  # not even a read
+
+
 def test_a_lagging_follower_catches_up_after_a_dropout(design):
     """A target moving along a reachable path at 0.6 of the speed limit, its stream frozen
     for 30 periods (a dropout) then resuming at its newest position: the resumed goal is a

@@ -234,10 +234,17 @@ def follow_step(
     ``ANSWER_JUMP`` from ``previous_goal`` (the last period's goal; None: there was none).
     An answer flagged only because the command lags behind a goal that moves smoothly is
     not a new swing. ``Follower`` keeps both between periods.
+
+    Raises
+    ------
+    ValueError
+        A ``clearance`` outside [0, 1] m, or other than 0 without a scene (naming it).
     """
     from handarm.ik import solve
     from handarm.ik.api import ANSWER_JUMP
+    from handarm.ik.exact import check_clearance
 
+    check_clearance(clearance, scene)
     p, e = target
     if scene:
         margin = clearance + scene_margin(design)
@@ -281,6 +288,9 @@ class Follower:
 
     def __init__(self, design: ArmDesign, dt: float, limits: MotionLimits, scene=None,
                  clearance: float = 0.0):  # fmt: skip
+        from handarm.ik.exact import check_clearance
+
+        check_clearance(clearance, scene)
         self.design, self.dt, self.limits = design, dt, limits
         self.scene, self.clearance = scene, clearance
         self.speed = 1.0
@@ -354,9 +364,12 @@ def follow(
         whose step the swing speed shortened, ``Follower``) and
         ``warm_up_s`` (the kernels' warm-up before torque on, s).
     """
+    from handarm.ik.exact import check_clearance
+
     limits = MotionLimits(design) if limits is None else limits
     dt = 1.0 / rate
     try:
+        check_clearance(clearance, scene)  # before the bus is touched
         q_cmd = check_state(bus, design, calibration, max_torque_fraction)
         check_clear(design, q_cmd, scene, clearance, "present pose")
         warm_up_s = _warm_up(design, q_cmd, dt, limits, scene, clearance)
