@@ -66,7 +66,8 @@ class Hole:
     """A cylindrical hole: axis from ``start`` to ``end`` (mm, in ``frame``), ``radius``.
 
     With ``tip`` > 0 a blind hole's start is closed by a cone ``tip`` mm tall instead of a
-    flat end (a drill's point): its wall is steep enough to print as a roof.
+    flat end (a drill's point): its wall is steep enough to print as a roof. ``blind``: the
+    start is a flat floor inside the material, which a teardrop roof must not run past.
     """
 
     name: str
@@ -75,6 +76,7 @@ class Hole:
     end: tuple[float, float, float]
     radius: float
     tip: float = 0.0
+    blind: bool = False
 
 
 @dataclasses.dataclass(frozen=True, eq=False)  # holds arrays: identity equality

@@ -118,7 +118,7 @@ def test_splitting_thins_no_wall(carved):
         link_wall, _ = wall_thickness(s.link.solid, w)
         for p in s.parts:
             wall, _ = wall_thickness(p.solid, w)
-            assert wall >= min(w, link_wall) - 0.05, (p.name, wall, link_wall)
+            assert wall >= min(w, link_wall) - 0.01, (p.name, wall, link_wall)
 
 
 def _grown_hole(a, b, r, w, up):
@@ -165,6 +165,27 @@ def test_fastener_holes_keep_min_wall_round_them_and_between_them(carved):
                     )
                     missing = (grown - hole) - p.solid
                     assert missing.volume() < 1e-3, (p.name, f.kind, h.name, missing.volume())
+
+
+def test_blind_holes_keep_min_wall_behind_their_floor(carved):
+    """Behind every blind fastener hole's floor, a disc min_wall thick (less 0.02 mm for
+    facets) lies in printed material. The l3 beam's pilot hole kept 1.18 mm there: its
+    layout was checked round the hole only, and its teardrop ran 0.05 mm past the floor."""
+    w = carved.design.min_wall * 1e3 - 0.02
+    floors = 0
+    for s in carved.printed:
+        for f in s.fasteners:
+            for h in f.holes:
+                if not h.blind:
+                    continue
+                a, b = np.asarray(h.start, float), np.asarray(h.end, float)
+                axis = (b - a) / np.linalg.norm(b - a)
+                behind = _cylinder(a - w * axis, a - 1e-3 * axis, h.radius, 32)
+                part = max(s.parts, key=lambda p: (behind ^ p.piece).volume())
+                missing = behind - part.solid
+                assert missing.volume() < 1e-3, (part.name, h.name, missing.volume())
+                floors += 1
+    assert floors >= 6  # three holes in each beam of the default's and the other's splits
 
 
 def test_screw_heads_clear_the_next_link_over_its_range(carved):

@@ -245,7 +245,7 @@ def _in_link(blank, hole: Hole) -> tuple[np.ndarray, np.ndarray]:
     return (m @ [*hole.start, 1.0])[:3], (m @ [*hole.end, 1.0])[:3]
 
 
-#: mm a teardrop runs past each end of its hole.
+#: mm a teardrop runs past each open end of its hole (not past a blind hole's floor).
 TEARDROP_OVERRUN = 0.05
 
 
@@ -254,9 +254,10 @@ def teardrops(axes, up) -> Manifold:
 
     Parameters
     ----------
-    axes : iterable of (start, end, radius)
+    axes : iterable of (start, end, radius) or (start, end, radius, blind)
         Hole axes (mm) and radii, in the frame of ``up``; holes not square to ``up`` (within
-        1e-3) are left as they are.
+        1e-3) are left as they are. ``blind``: ``start`` is a blind hole's floor, where the
+        teardrop stops (running past it would thin the wall behind the floor).
     up : array-like, shape (3,)
         The print's up direction.
 
@@ -268,17 +269,20 @@ def teardrops(axes, up) -> Manifold:
     """
     up = np.asarray(up, float) / np.linalg.norm(up)
     cuts = []
-    for start, end, radius in axes:
+    for start, end, radius, *blind in axes:
         start, end = np.asarray(start, float), np.asarray(end, float)
         axis = (end - start) / np.linalg.norm(end - start)
         if abs(float(axis @ up)) > 1e-3:
             continue
         r = radius / math.cos(math.pi / 32)  # holds the 32-sided hole as cut
         rise = (up - (up @ axis) * axis) * TEARDROP_TIP * r
-        # a hair longer than the hole at both ends, its polygon turned half a side: an end
-        # face on the hole's own (a blind hole's floor), or a side edge in a plane through
-        # the axle (a fork plate's end), left edges of four faces in the written STL
+        # a hair longer than the hole at an open end, a hair short of a blind hole's floor,
+        # its polygon turned half a side: an end face on the hole's own (the floor), or a
+        # side edge in a plane through the axle (a fork plate's end), left edges of four
+        # faces in the written STL
         start, end = _lengthened(start, end, TEARDROP_OVERRUN)
+        if blind and blind[0]:
+            start = start + 2 * TEARDROP_OVERRUN * axis
         cyl = _cylinder(start, end, r, 48, turn=180.0 / 48)
         verts = np.asarray(cyl.to_mesh().vert_properties)[:, :3]
         cuts.append(Manifold.hull_points(np.vstack([verts, start + rise, end + rise])))
@@ -481,7 +485,9 @@ def _axes(ctx: _Context, fasteners) -> list[tuple[np.ndarray, np.ndarray, float]
     """Every round hole of the link and its fasteners: (start, end, radius), link frame."""
     blank = ctx.link.blank
     out = [(*_in_link(blank, h), h.radius) for h in blank.holes]
-    out += [(np.array(h.start), np.array(h.end), h.radius) for f in fasteners for h in f.holes]
+    out += [
+        (np.array(h.start), np.array(h.end), h.radius, h.blind) for f in fasteners for h in f.holes
+    ]
     return out
 
 
@@ -741,8 +747,10 @@ def _screw_and_dowels(
     dowel_depth = dowel_len - bridge + 0.5
     solid = ctx.link.solid
     in_fork = _edges(_common_section(solid, frame, c + 0.05, xf - 0.05))
+    # min_wall past a blind hole's floor is wall too: the sections down to there must hold
+    # the hole with its wall (a teardrop stops at the floor: ``teardrops``)
     in_beam = {
-        d: _edges(_common_section(solid, frame, c - d, c - 0.05))
+        d: _edges(_common_section(solid, frame, c - d - w, c - 0.05))
         for d in (pilot_depth, dowel_depth)
     }
     heads = _head_room(ctx, frame, xf)
@@ -769,7 +777,14 @@ def _screw_and_dowels(
         p = p2[0] * frame[0] + p2[1] * frame[1] + c * n
         holes = (
             Hole(f"{kind} hole in the fork", "prox", _pt(p), _pt(p + (bridge + 1.0) * n), r_fork),
-            Hole(f"{kind} hole in the beam", "prox", _pt(p - depth * n), _pt(p + 0.05 * n), r_beam),
+            Hole(
+                f"{kind} hole in the beam",
+                "prox",
+                _pt(p - depth * n),
+                _pt(p + 0.05 * n),
+                r_beam,
+                blind=True,
+            ),
         )
         start = p + bridge * n  # the bridge's distal face: under the head
         return Fastener(
