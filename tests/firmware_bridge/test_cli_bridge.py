@@ -123,4 +123,105 @@ def test_bus_faults_are_one_line(tmp_path, capsys):
         "--calibration",
         tmp_path / "none.json",
     )
-    assert code == 2 and "calibration file not found" in err
+    assert code == 2 and "--calibration: no such file" in err
+
+
+def _one_line(code, err, status=2):
+    assert code == status, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+
+
+def test_bad_bridge_options_are_named_before_the_bus_is_touched(tmp_path, capsys):
+    """Each of these reached the bus, hung, or named the library's argument (found by a
+    reader of the bridge guide): an infinite --timeout waited forever for a silent servo,
+    --rate 100000 streamed a 0.66 s move for 72 s, --max-torque 0.0001 wrote Max Torque 0
+    (a limp arm), --baud 12345 exited as a bus failure."""
+    with EmulatedBus(positions=START) as emu:
+        cal = tmp_path / "cal.json"
+        port = ["--port", emu.port]
+        code, _, err = run(capsys, "bridge", "calibrate", *port, "--timeout", TIMEOUT, "--out", cal)
+        assert code == 0, err
+        live = [*port, "--calibration", cal]
+        goto = ["bridge", "goto", "0", "0", "0", "0", "0", "0"]
+        before = len(emu.log)
+        cases = [
+            ([*goto, *live, "--timeout", "inf"], "--timeout: expected 0 < ms <= 10000"),
+            ([*goto, *live, "--timeout", "-1"], "--timeout: expected 0 < ms"),
+            ([*goto, *live, "--rate", "100000"], "--rate: expected 0 < Hz <= 1000"),
+            ([*goto, *live, "--rate", "inf"], "--rate: expected 0 < Hz <= 1000"),
+            ([*goto, *live, "--baud", "12345"], "--baud: 12345 is not a rate"),
+            (["bridge", "apply", *port, "--max-torque", "0.0001"], "--max-torque: expected"),
+            (["bridge", "apply", *port, "--max-torque", "2"], "--max-torque: expected"),
+            (["bridge", "read", *port, "--calibration", tmp_path / "no.json"], "--calibration:"),
+            (
+                ["bridge", "size", "--no-carve", "--radius-range", "20", "4"],
+                "MIN_MM < MAX_MM, got 20 4",
+            ),
+        ]
+        for argv, message in cases:
+            code, _, err = run(capsys, *argv)
+            _one_line(code, err)
+            assert message in err, (argv, err)
+        assert len(emu.log) == before  # not one packet
+        # an existing file where the export's folder should be
+        (tmp_path / "afile").write_text("x")
+        code, _, err = run(capsys, "bridge", "export", "--out", tmp_path / "afile")
+        _one_line(code, err)
+        assert "--out:" in err and "not a folder" in err
+        assert (tmp_path / "afile").read_text() == "x"
+
+
+def test_follow_checks_a_whole_file_first_and_says_when_it_stalls(tmp_path, capsys):
+    """Line 50 malformed: status 2 came after 49 periods of motion. Millimetres: refused only
+    when the line came, without its number. A mirror handle.R moved the arm to a mirrored
+    target. A straight step blocked by an obstacle ended the file's loop with status 0 and
+    "followed" while the tool was far from the last target."""
+    import numpy as np
+
+    import handarm
+
+    design = handarm.ArmDesign()
+    q = np.radians([20, 30, -20, 10, 10, 0])
+    p, e = handarm.forward(design, q)
+    good = json.dumps({"p": list(p), "e": list(e)})
+    with EmulatedBus(positions=START) as emu:
+        cal = tmp_path / "cal.json"
+        port = ["--port", emu.port, "--timeout", TIMEOUT]
+        assert run(capsys, "bridge", "calibrate", *port, "--out", cal)[0] == 0
+        assert run(capsys, "bridge", "apply", *port, "--calibration", cal)[0] == 0
+        follow = ["bridge", "follow", *port, "--calibration", cal, "--source"]
+        mirror = {"R": [[1, 0, 0], [0, 1, 0], [0, 0, -1]], "t": [0, 0, 0]}
+        bad_lines = {
+            "{not json": "target line 50: not JSON",
+            json.dumps({"p": [x * 1000 for x in p], "e": list(e)}): "target line 50: p: ",
+            json.dumps({"p": list(p), "e": [0, 0, 0]}): "target line 50: e: direction has zero",
+            json.dumps({"p": list(p), "e": list(e), "handle": mirror}): "determinant +1",
+        }
+        for bad, message in bad_lines.items():
+            path = tmp_path / "targets.jsonl"
+            path.write_text("\n".join([good] * 49 + [bad] + [good]) + "\n")
+            before = len(emu.log)
+            code, _, err = run(capsys, *follow, path)
+            _one_line(code, err)
+            assert message in err, err
+            assert len(emu.log) == before  # nothing sent, not even a read
+        # a ball on the straight joint-space line from the present pose to the IK's answer:
+        # the answer is clear of it, the straight step is not
+        from handarm import ik
+        from handarm.scene import Scene, scene_gaps
+
+        start = np.zeros(6)  # the emulated arm is straight after the calibration
+        goal = ik.solve(design, p, e, current=start).follow
+        mid = handarm.forward(design, (start + goal) / 2)[0]
+        ball = Scene.empty().with_sphere(mid, 0.012)
+        assert scene_gaps(design, goal, ball, 0.001).min() > 0  # the answer keeps clear
+        scene = tmp_path / "ball.toml"
+        scene.write_text(
+            f"frame = 'handle'\n[[sphere]]\nradius = 0.012\nposition = {list(map(float, mid))}\n"
+        )
+        path = tmp_path / "targets.jsonl"
+        path.write_text("\n".join([good] * 20) + "\n")
+        code, out, err = run(capsys, *follow, path, "--scene", scene, "--clearance", "1")
+        assert code == 3 and "Traceback" not in err, err
+        # the preparing line, then the one error line
+        assert "error: the arm held short of the last target" in err.strip().splitlines()[-1]

@@ -121,7 +121,7 @@ def test_calibration_round_trip_and_refusals(tmp_path, design):
     data = json.loads(path.read_text())
     data["model_number"] = 311
     path.write_text(json.dumps(data))
-    with pytest.raises(ValueError, match="recorded for MX-64T \\(model 311\\)"):
+    with pytest.raises(ValueError, match=r"for MX-64T \(model 311\), .*MX-64T \(model 310\)"):
         Calibration.load(path, design)
     path.write_text("{")
     with pytest.raises(ValueError, match="not valid JSON"):
@@ -129,7 +129,7 @@ def test_calibration_round_trip_and_refusals(tmp_path, design):
     path.write_text('{"schema": "other"}')
     with pytest.raises(ValueError, match="not a handarm calibration"):
         Calibration.load(path)
-    with pytest.raises(FileNotFoundError, match="calibration file not found"):
+    with pytest.raises(FileNotFoundError, match="calibration: no such file"):
         Calibration.load(tmp_path / "none.json")
     data = cal.to_dict()
     for bad in (1.5, "7", True, 2.0):

@@ -115,6 +115,81 @@ def test_mismatched_calibration_is_refused(design):
         assert writes(emu, before) == []
 
 
+def test_goto_plans_again_when_the_arm_moved_while_it_planned(design, monkeypatch):
+    """The arm is limp while goto plans (seconds with a scene): joint 6 turned by hand
+    meanwhile was held at torque-on where it was, then the first sample jumped back to the
+    old start, a jump no check had seen. goto now reads the pose again and plans from it;
+    an arm that keeps moving is refused with nothing sent."""
+    from handarm.firmware_bridge.emulator import SYNC_WRITE, WRITE
+
+    turned = []
+    plan = B.plan_move
+
+    def turning_plan(*args, **kwargs):
+        out = plan(*args, **kwargs)
+        if len(turned) < turns:
+            emu.servos[6].real += 300  # a hand turns motor 6 (about 26 deg) meanwhile
+            emu.servos[6]._sync_present()
+            turned.append(args[2])
+        return out
+
+    monkeypatch.setattr(B, "plan_move", turning_plan)
+    goal = np.radians([0, 0, 0, 0, 0, 20])
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        turns = 1
+        before = len(emu.log)
+        samples = B.goto(bus, design, cal, goal, rate=200.0)
+        assert len(turned) == 1  # the second plan started from the turned pose
+        assert np.abs(samples[0] - turned[0]).max() > np.radians(10)
+        poses = streamed_poses(emu, design, cal, before)
+        assert np.abs(poses[0] - samples[0]).max() < 2 * B.pose_slack(design).max()
+        steps = np.abs(np.diff(poses, axis=0)).max()
+        assert steps < np.radians(5)  # no jump back to the old start
+        # a hand that never stops: refused after REPLANS + 1 plans, nothing written
+        turned.clear()
+        turns = B.REPLANS + 1
+        before = len(emu.log)
+        with pytest.raises(B.ArmStateError, match="the arm moved while each of 3 paths"):
+            B.goto(bus, design, cal, np.zeros(6), rate=200.0)
+        assert [e for e in emu.log[before:] if e[1] in (WRITE, SYNC_WRITE)] == []
+
+
+def test_a_goal_at_a_joint_limit_leaves_a_pose_the_next_command_accepts(design):
+    """goto to +150 deg on joint 6 rounded its motors to whole ticks, read back as
+    150.03 deg, and every later command refused the arm as miscalibrated: a pose within
+    pose_slack of a limit is at the limit; one farther out is still refused."""
+    from handarm.transmission import joint_from_motor, motor_from_ticks
+
+    lo, hi = design.lower, design.upper
+    with EmulatedBus(positions=START) as emu, B.ServoBus(emu.port, 1_000_000, TIMEOUT) as bus:
+        cal = ready(emu, bus, design)
+        over = 0
+        for k, side in ((5, hi), (1, lo), (4, hi)):
+            goal = np.zeros(6)
+            goal[k] = side[k]
+            B.goto(bus, design, cal, goal, rate=200.0)
+            ticks = np.array([emu.servos[i].get("goal_position") for i in range(1, 7)])
+            raw = joint_from_motor(
+                design, motor_from_ticks(design, ticks.astype(float), cal.offsets)
+            )
+            over += not (lo[k] <= raw[k] <= hi[k])  # the rounded goal maps past the limit
+            q = B.present_pose(bus, design, cal)
+            assert q[k] == pytest.approx(side[k], abs=1e-12)
+            B.goto(bus, design, cal, np.zeros(6), rate=200.0)  # refused before the fix
+        assert over >= 1  # the case the fix is for did occur
+        # twenty ticks on motor 6 (about 1.8 deg on joint 6) is no rounding: refused
+        slack = B.pose_slack(design)
+        assert 0 < slack.max() < np.radians(0.5)
+        goal = np.zeros(6)
+        goal[5] = hi[5]
+        B.goto(bus, design, cal, goal - np.array([0, 0, 0, 0, 0, 1e-3]), rate=200.0)
+        emu.servos[6].real += 20
+        emu.servos[6]._sync_present()
+        with pytest.raises(B.ArmStateError, match="joint 6 at .* outside its limits"):
+            B.present_pose(bus, design, cal)
+
+
 @pytest.mark.parametrize("reply_level", ["new", "old"])
 def test_apply_at_every_status_return_level_and_fixes_presets(design, reply_level):
     """Whichever level decides the answer to writing the level, no stray packet is left."""

@@ -169,6 +169,8 @@ def _interrupted(interrupts: _Interrupts, name: str) -> int:
 def _failure(name: str, exc: Exception) -> int:
     """One line and the exit status for a refused command; anything else is a bug: raised."""
     if isinstance(exc, (UsageError, ValueError, OSError)):
+        if name.startswith("handarm bridge") and not isinstance(exc, UsageError):
+            exc = option_error(exc, bridge.OPTIONS)  # the library's names, as options
         print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     if isinstance(exc, MemoryError):

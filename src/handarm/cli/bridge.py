@@ -23,6 +23,20 @@ from handarm.cli._common import (
 _BUS_OPTIONS = {"port": "--port", "baud": "--baud", "calibration": "--calibration"}
 
 
+#: The bridge library's argument names and the options that set them: an error naming
+#: ``timeout`` is reported as ``--timeout``.
+OPTIONS = {
+    "timeout": "--timeout",
+    "max_torque_fraction": "--max-torque",
+    "joint": "--joint",
+    "calibration": "--calibration",
+    "rate": "--rate",
+    "baud": "--baud",
+    "port": "--port",
+    "out": "--out",
+}
+
+
 def _calibration(args, design, required=True):
     from handarm.firmware_bridge.calibration import Calibration
 
@@ -62,7 +76,7 @@ def cmd_export(args: argparse.Namespace) -> int:
             max_torque_fraction=args.max_torque,
         )
     except ValueError as exc:
-        raise option_error(exc, {"max_torque_fraction": "--max-torque"}) from None
+        raise option_error(exc, OPTIONS) from None
     for path in paths:
         print(path)
     return 0
@@ -73,6 +87,9 @@ def cmd_size(args: argparse.Namespace) -> int:
     from handarm.firmware_bridge import sizing
 
     design = load_design(args.design)
+    lo_mm, hi_mm = args.radius_range
+    if not lo_mm < hi_mm:
+        raise UsageError(f"--radius-range: expected MIN_MM < MAX_MM, got {lo_mm:g} {hi_mm:g}")
     try:
         report = sizing.sizing_report(
             design,
@@ -173,8 +190,10 @@ def cmd_goto(args: argparse.Namespace) -> int:
     goal_ticks(design, calibration, q)  # refuse before opening the port
     check_clear(design, q, scene, clearance, "goal")  # refuse before opening the port
     limits = _limits(args, design)
-    if not args.rate > 0:
-        raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
+    from handarm.firmware_bridge.motion import MAX_RATE_HZ
+
+    if not 0 < args.rate <= MAX_RATE_HZ:
+        raise UsageError(f"--rate: expected 0 < Hz <= {MAX_RATE_HZ:g}, got {args.rate}")
     with _bus(args, design) as bus:
         samples = goto(
             bus,
@@ -278,15 +297,28 @@ def cmd_setup(args: argparse.Namespace) -> int:
 
 def cmd_follow(args: argparse.Namespace) -> int:
     """Keep the tool on a stream of targets while the handle moves (JSON lines)."""
-    from handarm.firmware_bridge.follow import JUMP_RAMP, JUMP_SPEED, follow, open_source
+    from handarm.firmware_bridge.follow import (
+        JUMP_RAMP,
+        JUMP_SPEED,
+        check_source_lines,
+        follow,
+        open_source,
+    )
 
     design = load_design(args.design)
     calibration = _calibration(args, design)
     limits = _limits(args, design)
     scene, clearance = load_scene(args)
-    if not args.rate > 0:
-        raise UsageError(f"--rate: expected a positive number of Hz, got {args.rate}")
+    from handarm.firmware_bridge.motion import MAX_RATE_HZ
+
+    if not 0 < args.rate <= MAX_RATE_HZ:
+        raise UsageError(f"--rate: expected 0 < Hz <= {MAX_RATE_HZ:g}, got {args.rate}")
     source = open_source(args.source)
+    try:
+        check_source_lines(design, source)  # a file's every line, before anything else
+    except ValueError:
+        source.close()
+        raise
     # the warm-up compiles for minutes on a fresh install, silently but for this line
     print(
         "handarm bridge follow: preparing the IK kernels before torque goes on (minutes on a "
@@ -319,6 +351,14 @@ def cmd_follow(args: argparse.Namespace) -> int:
         )
     if stats["blocked_by"]:
         print(f"held before targets blocked by: {', '.join(stats['blocked_by'])}")
+    if stats["stalled"]:
+        print(
+            "handarm bridge follow: error: the arm held short of the last target: the straight "
+            "step towards it meets a link or an obstacle, and follow does not plan around "
+            "them ('handarm bridge goto' does)",
+            file=sys.stderr,
+        )
+        return 3
     return 0
 
 

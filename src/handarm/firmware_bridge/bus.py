@@ -59,6 +59,7 @@ __all__ = [
     "apply_settings",
     "check_state",
     "read_joint_angles",
+    "pose_slack",
     "present_pose",
     "goal_ticks",
     "plan_move",
@@ -108,6 +109,11 @@ class ArmStateError(RuntimeError):
     exit_status = 4
 
 
+#: ms: the longest status timeout taken (the SDK's default is about 34 ms); longer, a silent
+#: servo would hang every command (``inf`` never returned)
+MAX_TIMEOUT_MS = 10_000.0
+
+
 class ServoBus:
     """An open serial port with a Protocol 1.0 packet handler.
 
@@ -130,12 +136,20 @@ class ServoBus:
     def __init__(self, port: str, baud: int, timeout: float | None = None):
         from dynamixel_sdk import PacketHandler, PortHandler
 
+        if isinstance(baud, bool) or baud not in BAUD_VALUES:
+            raise ValueError(
+                f"baud: {baud} is not a rate the MX-64 and the SDK share; choose one of "
+                f"{sorted(BAUD_VALUES)}"
+            )
         self.port_name = port
         self.baud = int(baud)
         self.port = PortHandler(port)
         if timeout is not None:
-            if not timeout > 0:
-                raise ValueError(f"timeout: expected a positive number of ms, got {timeout}")
+            if not 0 < timeout <= MAX_TIMEOUT_MS:
+                raise ValueError(
+                    f"timeout: expected 0 < ms <= {MAX_TIMEOUT_MS:g} (a silent servo would "
+                    f"hold every read that long), got {timeout}"
+                )
             self.port.setPacketTimeout = lambda _n: self.port.setPacketTimeoutMillis(timeout)
         self.packet = PacketHandler(1.0)
         try:
@@ -427,6 +441,21 @@ def read_joint_angles(bus: ServoBus, design: ArmDesign, calibration: Calibration
     return joint_from_motor(design, phi)
 
 
+#: Times ``goto`` plans again when the arm moved while its path was planned.
+REPLANS = 2
+
+#: Ticks a servo may rest away from its goal: the goal's rounding to whole ticks (half a
+#: tick) and the servo's own dead band. A present pose read that far past a joint limit is
+#: at the limit (a goal at +150 deg read back as +150.03 deg), not a wrong calibration.
+POSE_SLACK_TICKS = 2
+
+
+def pose_slack(design: ArmDesign) -> np.ndarray:
+    """Per joint (rad): how far ``POSE_SLACK_TICKS`` on every motor can move it, (6,)."""
+    per_motor = np.abs(joint_from_motor(design, np.eye(6)))  # row m: motor m's unit turn
+    return POSE_SLACK_TICKS / design.servo.ticks_per_radian * per_motor.sum(axis=0)
+
+
 def _pose_problem(design: ArmDesign, q: np.ndarray) -> str | None:
     for k in range(6):
         lo, hi = design.joint_limits[k]
@@ -448,6 +477,9 @@ def _pose_problem(design: ArmDesign, q: np.ndarray) -> str | None:
 def present_pose(bus: ServoBus, design: ArmDesign, calibration: Calibration) -> np.ndarray:
     """The present joint angles (rad), refused unless the pose is within limits and valid.
 
+    A pose read within ``pose_slack`` of a joint limit (a goal at the limit, rounded to
+    whole ticks, reads back a few hundredths of a degree past it) is taken at the limit.
+
     Raises
     ------
     ArmStateError
@@ -462,6 +494,10 @@ def present_pose(bus: ServoBus, design: ArmDesign, calibration: Calibration) -> 
             "'handarm bridge calibrate'. Nothing was sent"
         )
     q = read_joint_angles(bus, design, calibration)
+    slack = pose_slack(design)
+    if np.all((q >= design.lower - slack) & (q <= design.upper + slack)):
+        # within a few ticks of a limit (a goal there, rounded to ticks): at the limit
+        q = np.clip(q, design.lower, design.upper)
     problem = _pose_problem(design, q)
     if problem is not None:
         raise ArmStateError(
@@ -735,8 +771,10 @@ def goto(
     them; a goal or present pose that does not is refused naming the obstacles.
 
     Checks the servos (``check_state``: registers and present pose), plans and times the
-    path (``plan_move``), turns torque on holding the present pose, then streams the
-    samples (``stream``). Nothing is written before every check has passed.
+    path (``plan_move``), reads the pose again (the arm is limp while it plans: a pose moved
+    by more than ``pose_slack`` is planned from again, up to ``REPLANS`` times), turns
+    torque on holding the present pose, then streams the samples (``stream``). Nothing is
+    written before every check has passed.
 
     Returns
     -------
@@ -746,18 +784,30 @@ def goto(
     calibration.check_matches(design)
     goal_ticks(design, calibration, q)  # refuses before touching the bus
     start = check_state(bus, design, calibration, max_torque_fraction)
-    samples = plan_move(
-        design,
-        calibration,
-        start,
-        q,
-        rate=rate,
-        limits=limits,
-        timeout=timeout,
-        seed=seed,
-        scene=scene,
-        clearance=clearance,
-    )
+    for _ in range(REPLANS + 1):
+        samples = plan_move(
+            design,
+            calibration,
+            start,
+            q,
+            rate=rate,
+            limits=limits,
+            timeout=timeout,
+            seed=seed,
+            scene=scene,
+            clearance=clearance,
+        )
+        # the arm is limp while the path is planned (up to ``timeout`` s): torque on would
+        # hold it where it is now, and the first sample would jump back to ``start``
+        now = present_pose(bus, design, calibration)
+        if np.all(np.abs(now - start) <= pose_slack(design)):
+            break
+        start = now
+    else:
+        raise ArmStateError(
+            f"present pose: the arm moved while each of {REPLANS + 1} paths was planned; "
+            "hold it still (torque is off until the move starts). Nothing was sent"
+        )
     set_torque(bus, design, True)
     limit = expected_registers(design, calibration, max_torque_fraction)
     stream(

@@ -62,7 +62,7 @@ class Calibration:
         if self.servo_model != design.servo_model or self.model_number != design.servo.model_number:
             raise ValueError(
                 f"calibration: recorded for {self.servo_model} (model {self.model_number}), "
-                f"the design has {design.servo_model}"
+                f"the design has {design.servo_model} (model {design.servo.model_number})"
             )
 
     def to_dict(self) -> dict:
@@ -84,7 +84,7 @@ class Calibration:
         try:
             data = json.loads(read_regular_bytes(path), parse_constant=_no_constant)
         except FileNotFoundError:
-            raise FileNotFoundError(f"calibration file not found: {path}") from None
+            raise FileNotFoundError(f"calibration: no such file: {path}") from None
         except ValueError as exc:  # JSON syntax, encoding, NaN/Infinity, special file
             raise ValueError(f"{path}: not valid JSON: {exc}") from None
         if not isinstance(data, dict) or data.get("schema") != SCHEMA:

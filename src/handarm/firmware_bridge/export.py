@@ -86,8 +86,13 @@ def controller_config(
     max_torque_fraction : float
         Max Torque register as a fraction of the servo's maximum (0 < f <= 1).
     """
-    if not 0.0 < max_torque_fraction <= 1.0:
-        raise ValueError(f"max_torque_fraction: expected 0 < f <= 1, got {max_torque_fraction}")
+    least = 1.0 / design.servo.max_torque_register  # Max Torque 1: the least not limp
+    if not least <= max_torque_fraction <= 1.0:
+        raise ValueError(
+            f"max_torque_fraction: expected {least:.2g} <= f <= 1 (Max Torque "
+            f"{design.servo.max_torque_register} x f must round to 1 or more, or the servo is "
+            f"limp), got {max_torque_fraction}"
+        )
     if achieved_limits is not None:
         ach = np.asarray(achieved_limits, dtype=float)
         if ach.shape != (6, 2):

@@ -46,6 +46,7 @@ from handarm.firmware_bridge.calibration import Calibration
 from handarm.firmware_bridge.motion import (
     MotionLimits,
     check_clear,
+    check_rate,
     check_step,
     scene_margin,
     segment_valid,
@@ -95,11 +96,48 @@ def parse_target(line: str, where: str = "target") -> tuple[np.ndarray, np.ndarr
             r = np.asarray(handle["R"], dtype=float)
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"{where}: 'handle.R' missing or not numbers") from None
-        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
-            raise ValueError(f"{where}: 'handle.R' must be a 3x3 rotation matrix")
+        if (
+            r.shape != (3, 3)
+            or not np.all(np.isfinite(r))
+            or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
+            or np.linalg.det(r) < 0
+        ):
+            raise ValueError(
+                f"{where}: 'handle.R' must be a 3x3 rotation matrix (orthonormal, determinant "
+                "+1: a mirror is no pose of the handle)"
+            )
         t = _vector(handle, "t", f"{where}: handle")
         p, e = r.T @ (p - t), r.T @ e
     return p, e
+
+
+def check_target_line(design: ArmDesign, line: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``parse_target``, then the IK's own checks of p and e, naming ``where``.
+
+    A position in millimetres (beyond 100 x the arm's reach) or a zero direction is refused
+    here with the line's number, not by the IK mid-stream.
+    """
+    from handarm.ik.exact import check_scale, check_target
+
+    p, e = parse_target(line, where)
+    p, e = check_target(p, e, f"{where}: p", f"{where}: e")
+    check_scale(design, p, f"{where}: p")
+    return p, e
+
+
+def check_source_lines(design: ArmDesign, source: TargetSource) -> int:
+    """Check every line of a file source before the bus is touched; its target count.
+
+    A live source (stdin, UDP) is checked line by line as it arrives instead.
+    """
+    if source.lines is None:
+        return 0
+    count = 0
+    for n, line in enumerate(source.lines, start=1):
+        if line.strip():
+            check_target_line(design, line, f"target line {n}")
+            count += 1
+    return count
 
 
 class TargetSource:
@@ -111,6 +149,9 @@ class TargetSource:
 
     def __init__(self, lines=None, sock: socket.socket | None = None, paced: bool = False):
         self.paced = paced
+        #: every line, when known before the loop starts (a file; a list): checked first
+        self.lines = list(lines) if isinstance(lines, (list, tuple)) else None
+        lines = self.lines if self.lines is not None else lines
         self.queue: queue.Queue = queue.Queue()
         self.ended = threading.Event()
         self.sock = sock
@@ -208,6 +249,9 @@ class FollowStep(NamedTuple):
     swing: bool
     #: The speed fraction bound the step: the full limit would have moved farther.
     slowed: bool
+    #: The straight step towards the goal met a link or an obstacle at every length tried:
+    #: the arm holds short of a goal it has not reached (``follow`` does not plan around).
+    held: bool = False
 
 
 def follow_step(
@@ -274,7 +318,8 @@ def follow_step(
         if segment_valid(design, q_cmd, q_next, scene, clearance):
             return FollowStep(q_next, dof, (), goal, swing, slowed)
         q_next = q_cmd + (q_next - q_cmd) / 2  # a shorter step along the same line
-    return FollowStep(q_cmd, dof, (), goal, swing, False)
+    held = bool(np.abs(goal - q_cmd).max() > SETTLED)
+    return FollowStep(q_cmd, dof, (), goal, swing, False, held)
 
 
 class Follower:
@@ -361,15 +406,19 @@ def follow(
         median, 95th percentile, max), ``period_ms`` (same),
         ``q`` (last command, rad), ``blocked_by`` (obstacles that blocked every exact
         solution of some target, which the arm held before), ``slowed_periods`` (periods
-        whose step the swing speed shortened, ``Follower``) and
-        ``warm_up_s`` (the kernels' warm-up before torque on, s).
+        whose step the swing speed shortened, ``Follower``),
+        ``warm_up_s`` (the kernels' warm-up before torque on, s) and ``stalled``: the
+        last period held short of its goal, because the straight step towards it meets a
+        link or an obstacle (``FollowStep.held``); a file source then ended there, its last
+        target not reached.
     """
     from handarm.ik.exact import check_clearance
 
     limits = MotionLimits(design) if limits is None else limits
-    dt = 1.0 / rate
+    dt = 1.0 / check_rate(rate)
     try:
         check_clearance(clearance, scene)  # before the bus is touched
+        check_source_lines(design, source)  # a file's bad line: refused before any motion
         q_cmd = check_state(bus, design, calibration, max_torque_fraction)
         check_clear(design, q_cmd, scene, clearance, "present pose")
         warm_up_s = _warm_up(design, q_cmd, dt, limits, scene, clearance)
@@ -384,6 +433,7 @@ def follow(
     limit = expected_registers(design, calibration, max_torque_fraction)[design.servo_ids[0]]
     blockers: set[str] = set()  # obstacles that blocked a target (the arm held)
     target, latencies, periods, n_targets, n_slowed = None, [], [], 0, 0
+    stalled = False  # the last step held short of its goal
     follower = Follower(design, dt, limits, scene, clearance)
     i = 0
     t0 = last = time.perf_counter()
@@ -397,7 +447,7 @@ def follow(
                 arrival, n, line = item
                 # a line that came during the warm-up waited for the loop, not in it
                 arrival = max(arrival, t0)
-                target = parse_target(line, f"target line {n}")
+                target = check_target_line(design, line, f"target line {n}")
                 n_targets += 1
             if target is not None:
                 step = follower.step(q_cmd, target)
@@ -407,8 +457,9 @@ def follow(
                 send_sample(bus, design, calibration, q_next, q_cmd, dt)
                 if arrival is not None:
                     latencies.append(time.perf_counter() - arrival)
+                stalled = step.held
                 if item is None and source.done and np.abs(q_next - q_cmd).max() <= SETTLED:
-                    break  # the last target is reached (or as near as it gets)
+                    break  # the last target is reached (or as near as it gets), or held
                 q_cmd = q_next
             check_health(bus, design, i, limit["torque_limit"])
             if on_period is not None:
@@ -447,4 +498,5 @@ def follow(
         "blocked_by": sorted(blockers),
         "slowed_periods": n_slowed,
         "warm_up_s": warm_up_s,
+        "stalled": stalled,
     }
