@@ -234,5 +234,45 @@ def test_carve_command(tmp_path, capsys):
         capsys, "carve", "--out", str(tmp_path / "c"), "--quiet", "--resolution", "2"
     )
     assert code == 0, err
-    assert "achieved" in out and "total link mass" in out
-    assert (tmp_path / "c" / "carve.json").exists()
+    assert "parts allow" in out and "as built" in out and "total link mass" in out
+    # as built: the request within what the parts allow (what the URDF is written with)
+    for j in json.loads((tmp_path / "c" / "carve.json").read_text())["joints"]:
+        req, ach, built = j["requested_deg"], j["achieved_deg"], j["as_built_deg"]
+        assert built == [max(req[0], ach[0]), min(req[1], ach[1])]
+    assert (tmp_path / "c" / "handarm-build.json").exists()  # a manifest, as a build has
+    assert "warning" not in err and "thin wall" not in out  # the paper's arm keeps min_wall
+
+
+@pytest.mark.slow
+def test_carving_a_too_thin_design_warns(tmp_path, capsys):
+    """Links of 20 mm are knife-edged before carving (walls of a few um); carve exited 0
+    with only links/*.json saying so."""
+    design = tmp_path / "short.toml"
+    design.write_text("link_lengths = [0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.02]\n")
+    code, out, err = run(
+        capsys, "carve", str(design), "--out", str(tmp_path / "c"), "--quiet", "--resolution", "2"
+    )
+    assert code == 0, err
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and "walls under min_wall (1.2 mm)" in warning[0], err
+    thin = {link for link in ("l1", "l2", "l3", "l4", "l5") if f"{link} " in warning[0]}
+    assert thin == {"l1", "l2", "l3", "l4", "l5"}
+    assert out.count("thin wall:") == 5
+    for link in thin:  # the same verdict as the link's own report
+        report = json.loads((tmp_path / "c" / "links" / f"{link}.json").read_text())
+        assert report["min_wall_met"] is False and report["min_wall_m"] < 1.2e-3
+    # the default design carved into the same folder: none of the short design's parts stay
+    # (its l3 printed whole as parts/l3.stl, the default's as a beam and a fork)
+    assert (tmp_path / "c" / "parts" / "l3.stl").exists()
+    code, out, err = run(
+        capsys, "carve", "--out", str(tmp_path / "c"), "--quiet", "--resolution", "2"
+    )
+    assert code == 0 and "warning" not in err, err
+    manifest = json.loads((tmp_path / "c" / "handarm-build.json").read_text())
+    on_disk = {
+        str(p.relative_to(tmp_path / "c"))
+        for p in (tmp_path / "c").rglob("*")
+        if p.is_file() and not p.name.startswith(".") and p.name != "handarm-build.json"
+    }
+    assert on_disk == set(manifest["files"])
+    assert not (tmp_path / "c" / "parts" / "l3.stl").exists()

@@ -321,6 +321,29 @@ def test_out_that_is_a_symlink_fifo_or_file_is_refused(tmp_path, capsys):
     assert listing(target) == set()
 
 
+@pytest.mark.parametrize("command", ["carve", "workspace"])
+def test_out_holding_a_linked_folder_is_refused(tmp_path, capsys, command):
+    """carve --out c1 wrote l0.stl .. l6.stl through c1/meshes, a link to a folder outside."""
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    out = tmp_path / "c1" / "deep"
+    out.mkdir(parents=True)
+    (out / "meshes").symlink_to(outside)
+    extra = ["--no-sensitivity"] if command == "workspace" else []
+    code, _, err = run(capsys, command, "--out", tmp_path / "c1", "--quiet", *extra)
+    one_line_error(err, code)
+    assert "--out: " in err and "deep/meshes is a symbolic link" in err, err
+    assert listing(outside) == set()
+    assert listing(tmp_path / "c1") == {"deep", "deep/meshes"}
+    # a FIFO where an output will go: refused before the work, not after it
+    (out / "meshes").unlink()
+    os.mkfifo(out / "carve.json")
+    code, _, err = run(capsys, command, "--out", tmp_path / "c1", "--quiet", *extra)
+    one_line_error(err, code)
+    assert "deep/carve.json is not a regular file" in err, err
+    assert listing(tmp_path / "c1") == {"deep", "deep/carve.json"}
+
+
 def test_atomic_write_never_replaces_a_special_file(tmp_path):
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)

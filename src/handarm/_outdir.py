@@ -30,7 +30,8 @@ def check_out_dir(out: str | os.PathLike[str], name: str = "out") -> Path:
     """``out`` as a Path if it is (or can become) a writable folder; ValueError otherwise.
 
     A symlink, FIFO, device or regular file at ``out`` is refused rather than replaced or
-    written through; so is a folder the user cannot write into, and an empty name (which
+    written through; so is a folder the user cannot write into, one holding a symbolic link
+    to a folder (its files would land wherever the link points), and an empty name (which
     would be the working folder). Nothing is created.
     """
     if isinstance(out, str) and not out.strip():
@@ -49,6 +50,22 @@ def check_out_dir(out: str | os.PathLike[str], name: str = "out") -> Path:
         raise ValueError(f"{name}: {out} exists and is not a folder")
     if not os.access(out, os.W_OK | os.X_OK):
         raise ValueError(f"{name}: {out} is not writable")
+    for root, dirs, files in os.walk(out):  # links are listed, not followed
+        for d in dirs:
+            if os.path.islink(os.path.join(root, d)):
+                raise ValueError(
+                    f"{name}: {Path(root, d)} is a symbolic link; the outputs would be "
+                    "written through it, outside the folder"
+                )
+        for f in files:  # a FIFO or device was found only when its name came to be written
+            mode = os.lstat(os.path.join(root, f)).st_mode
+            if (
+                stat.S_ISFIFO(mode)
+                or stat.S_ISCHR(mode)
+                or stat.S_ISBLK(mode)
+                or stat.S_ISSOCK(mode)
+            ):
+                raise ValueError(f"{name}: {Path(root, f)} is not a regular file; remove it first")
     return out
 
 

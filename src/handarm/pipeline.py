@@ -147,10 +147,10 @@ def export_controller(
     -------
     list of Path
     """
+    out = check_out_dir(out)
     config = controller_config(
         design, calibration, achieved_limits, max_torque_fraction=max_torque_fraction
     )
-    out = Path(out)
     return [
         write_controller_json(config, out / "controller.json"),
         write_header(config, out / "arm_config.h"),
@@ -385,7 +385,7 @@ def build(
         files += paths
         # from here on the arm as printed: requested limits narrowed to what the links allow
         built = carving.as_built
-        lines = _limits_summary(design, carving) + printed_summary(carving.printed)
+        lines = _limits_summary(design, carving) + printed_summary(carving.printed, design.min_wall)
         write_text_atomic(summary, summary.read_text() + lines)
         files.append(_write_tendons(built, carving, out, summary))
         files += _write_handle(built, carving, out, summary)

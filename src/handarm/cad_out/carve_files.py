@@ -46,6 +46,7 @@ __all__ = [
     "printing_report",
     "split_report",
     "printed_summary",
+    "thin_links",
     "OUTPUT_STEPS",
 ]
 
@@ -173,9 +174,24 @@ def split_report(split, density: float) -> dict:
     }
 
 
-def printed_summary(splits) -> str:
-    """Lines for summary.txt: how each link prints, its worst part's support and fasteners."""
+def thin_links(splits, min_wall: float) -> list[tuple[str, float]]:
+    """(link name, thinnest wall in mm) of every link with a wall under ``min_wall`` (m)."""
+    out = []
+    for s in splits:
+        wall, _ = wall_thickness(s.link.solid, min_wall * 1e3, samples=s.link.walls)
+        if wall < min_wall * 1e3 - 1e-9:
+            out.append((s.link.name, wall))
+    return out
+
+
+def printed_summary(splits, min_wall: float | None = None) -> str:
+    """Lines for summary.txt: how each link prints, its worst part's support and fasteners.
+
+    With the design's ``min_wall`` (m), a link with a wall under it says so (its JSON's
+    ``min_wall_met`` is false).
+    """
     target = max(s.target for s in splits)
+    thin = dict(thin_links(splits, min_wall)) if min_wall is not None else {}
     lines = [
         "",
         f"printed parts (target: under {target:g} mm^2 of support each; links/*.json 'print'):",
@@ -192,6 +208,12 @@ def printed_summary(splits) -> str:
             f"{s.support:6.1f} mm^2 (one piece: {s.unsplit_support:6.1f}){held}"
         )
         lines += [f"    target missed: {p}" for p in s.problems]
+        if s.link.name in thin:
+            lines.append(
+                f"    thin wall: {thin[s.link.name]:.3g} mm, under min_wall {min_wall * 1e3:g} mm "
+                "(the link's shape is that thin where carving could not keep it; "
+                "links/*.json 'min_wall_met')"
+            )
     return "\n".join(lines) + "\n"
 
 

@@ -88,8 +88,9 @@ class JointReport:
     """Requested, carved and achieved limits of one joint (rad) and what stops it.
 
     ``links_meet``: each way, the angle before the two carved links meet. ``achieved``:
-    what the printed joint allows: that range, or the carved one on a side where carving
-    narrowed the request (past it the links pass closer than the print clearance),
+    what the printed parts allow (wider than ``requested`` where the request is narrow;
+    ``as_built`` is the range the arm is built for): that range, or the carved one on a side
+    where carving narrowed the request (past it the links pass closer than the print clearance),
     narrowed to where both links' cable runs keep clear of both links
     (``handarm.tendons.cable_limits``). ``stopped_by`` names what ends ``achieved`` each
     way: the link features that meet, carving, or the cable.
@@ -102,6 +103,18 @@ class JointReport:
     stopped_by: tuple[str, str]
     links_meet: tuple[float, float]
 
+    @property
+    def as_built(self) -> tuple[float, float]:
+        """The joint's range on the printed arm: ``requested`` within ``achieved``."""
+        return max(self.requested[0], self.achieved[0]), min(self.requested[1], self.achieved[1])
+
+    @property
+    def built_stop(self) -> tuple[str, str]:
+        """What ends ``as_built`` each way: ``stopped_by``, or the request where narrower."""
+        lo = "the request" if self.requested[0] > self.achieved[0] else self.stopped_by[0]
+        hi = "the request" if self.requested[1] < self.achieved[1] else self.stopped_by[1]
+        return lo, hi
+
     def to_dict(self) -> dict:
         """JSON-ready, in degrees."""
         return {
@@ -109,6 +122,7 @@ class JointReport:
             "requested_deg": [math.degrees(v) for v in self.requested],
             "carved_deg": [math.degrees(v) for v in self.carved],
             "achieved_deg": [math.degrees(v) for v in self.achieved],
+            "as_built_deg": [math.degrees(v) for v in self.as_built],
             "links_meet_deg": [math.degrees(v) for v in self.links_meet],
             "stopped_by": {"lower": self.stopped_by[0], "upper": self.stopped_by[1]},
         }

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 
 from handarm.cli._common import (
     MAP_OPTIONS,
@@ -54,38 +55,64 @@ def cmd_build(args: argparse.Namespace) -> int:
         raise option_error(exc, MAP_OPTIONS) from None
     for path in result.files:
         print(path)
+    warn_thin(result.carving, "handarm build")
     return 0
 
 
 def cmd_carve(args: argparse.Namespace) -> int:
     """Carve the links and print the limits they allow."""
+    from handarm._outdir import build_folder
+    from handarm._resources import check_resources
     from handarm.cad_out.carve_files import printed_summary
+    from handarm.carve import check_carvable
     from handarm.pipeline import carve_design
 
     design = load_design(args.design)
     try:
-        carving, files = carve_design(
-            design,
-            args.out,
-            resolution_deg=args.resolution,
-            progress=not args.quiet,
-            **limits(args),
-        )
+        check_carvable(design)  # before the folder is made or marked
+        check_resources(design, resolution_deg=args.resolution, **limits(args))
+        # as a build does: locked, marked until done, and the previous run's files that
+        # this one does not write again removed (another design's parts mixed in before)
+        with build_folder(args.out, design.to_dict()) as files:
+            carving, paths = carve_design(
+                design,
+                args.out,
+                resolution_deg=args.resolution,
+                progress=not args.quiet,
+                **limits(args),
+            )
+            files += paths
     except ValueError as exc:
         raise option_error(exc, {"out": "--out", "resolution_deg": "--resolution"}) from None
-    print("joint  requested (deg)     achieved (deg)      stopped by (upper side)")
+    print("joint  requested (deg)    parts allow (deg)   as built (deg)      stopped by (upper)")
     for j in carving.joints:
         req = [math.degrees(v) for v in j.requested]
         ach = [math.degrees(v) for v in j.achieved]
+        built = [math.degrees(v) for v in j.as_built]
         print(
-            f"{j.joint:>5}  {req[0]:7.2f} {req[1]:7.2f}     {ach[0]:7.2f} {ach[1]:7.2f}     "
-            f"{j.stopped_by[1]}"
+            f"{j.joint:>5}  {req[0]:7.2f} {req[1]:7.2f}    {ach[0]:7.2f} {ach[1]:7.2f}     "
+            f"{built[0]:7.2f} {built[1]:7.2f}     {j.built_stop[1]}"
         )
     mass = sum(link.solid.volume() for link in carving.links) * 1e-9 * carving.design.density
     print(f"total link mass {mass * 1e3:.1f} g")
-    print(printed_summary(carving.printed).lstrip("\n"), end="")
+    print(printed_summary(carving.printed, design.min_wall).lstrip("\n"), end="")
     print(f"wrote {len(files)} files into {args.out}")
+    warn_thin(carving, "handarm carve")
     return 0
+
+
+def warn_thin(carving, name: str) -> None:
+    """A warning on stderr when a carved link keeps a wall under the design's min_wall."""
+    from handarm.cad_out.carve_files import thin_links
+
+    thin = thin_links(carving.printed, carving.design.min_wall)
+    if thin:
+        walls = ", ".join(f"{link} {wall:.3g} mm" for link, wall in thin)
+        print(
+            f"{name}: warning: walls under min_wall ({carving.design.min_wall * 1e3:g} mm): "
+            f"{walls}; these links may not print (see links/*.json)",
+            file=sys.stderr,
+        )
 
 
 def cmd_urdf(args: argparse.Namespace) -> int:
