@@ -427,8 +427,10 @@ def test_optimize_resumes_extends_and_writes_the_front(opt_file, tmp_path, capsy
     assert "trial" in page and '<script src="http' not in page  # the run's offline page
     # another optimization into the same folder is refused, naming the option
     opt_file.write_text(OPT.replace("max_mass_g = 150", "max_mass_g = 140"))
-    code = main(["optimize", str(opt_file), "--out", str(out), "--quiet"])
-    assert code == 2 and "--out" in capsys.readouterr().err
+    code = main(["optimize", str(opt_file), "--out", str(out)])  # with its progress bar
+    err = capsys.readouterr().err
+    assert code == 2 and "--out" in err
+    assert len(err.strip().splitlines()) == 1, err  # no bar drawn before the refusal
 
 
 def test_workspace_sensitivity_uses_the_map_settings_asked_for(tmp_path):

@@ -43,6 +43,7 @@ def test_load_study(study_file):
         ("[grid]\nlimit_deg_2 = 120", "grid.limit_deg_2: expected a non-empty list"),
         ("[grid]\nclearance = [-1.0]", "clearance: must be > 0"),
         ("[grid]\nbogus = [1]", "unknown field 'bogus'"),
+        ('[grid]\nname = ["a", "b"]', "grid.name: a design's name is not a variable"),
         ("[weights]\nspeed = 1", "weights.speed: unknown weight"),
         ("[weights]\nmass = 'heavy'", "weights.mass: expected a number"),
         ("threshold = 2.0", "threshold: expected a number in"),

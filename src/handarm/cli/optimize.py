@@ -36,26 +36,31 @@ def cmd_optimize(args: argparse.Namespace) -> int:
         raise option_error(ValueError(f"trials: expected >= 1, got {args.trials}"), _OPTIONS)
     if args.workers is not None and args.workers < 1:
         raise option_error(ValueError(f"workers: expected >= 1, got {args.workers}"), _OPTIONS)
-    total = args.trials or opt.trials
-    with tqdm(total=total, desc=opt.name, unit="trial", disable=args.quiet) as bar:
+    bars = []  # made at the first progress call: a refused resume stays one line
 
-        def tick(done: int, total: int, front: int, hv: float) -> None:
-            bar.total = total
-            bar.set_postfix(front=front, hypervolume=f"{hv:.4g}")
-            bar.update(done - bar.n)
+    def tick(done: int, total: int, front: int, hv: float) -> None:
+        if not bars:
+            bars.append(tqdm(total=total, desc=opt.name, unit="trial", disable=args.quiet))
+        bar = bars[0]
+        bar.total = total
+        bar.set_postfix(front=front, hypervolume=f"{hv:.4g}")
+        bar.update(done - bar.n)
 
-        try:
-            result = run_optimization(
-                opt,
-                args.out,
-                trials=args.trials,
-                sampler=args.sampler,
-                scheduler=args.scheduler,
-                workers=args.workers,
-                progress=tick,
-            )
-        except ValueError as exc:
-            raise option_error(exc, _OPTIONS) from None
+    try:
+        result = run_optimization(
+            opt,
+            args.out,
+            trials=args.trials,
+            sampler=args.sampler,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=tick,
+        )
+    except ValueError as exc:
+        raise option_error(exc, _OPTIONS) from None
+    finally:
+        for bar in bars:
+            bar.close()
     print(
         f"{result['new']} trials run now, {result['finished']} in the journal; "
         f"front of {len(result['front'])}, hypervolume {result['hypervolume']:.4g}"

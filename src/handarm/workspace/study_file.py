@@ -157,6 +157,11 @@ def load_study(path: str | os.PathLike[str]) -> Study:
         if not grid:
             raise ValueError(f"{path}: grid: empty; give at least one field and its values")
         for key, values in grid.items():
+            if key == "name":  # each row's name is made from its values
+                raise ValueError(
+                    f"{path}: grid.name: a design's name is not a variable (each grid row is "
+                    "named after its values); list named designs under [[designs]] instead"
+                )
             if not isinstance(values, list) or not values:
                 raise ValueError(f"{path}: grid.{key}: expected a non-empty list")
         keys = list(grid)
