@@ -20,9 +20,6 @@ from handarm.cli._common import (
     option_error,
 )
 
-_BUS_OPTIONS = {"port": "--port", "baud": "--baud", "calibration": "--calibration"}
-
-
 #: The bridge library's argument names and the options that set them: an error naming
 #: ``timeout`` is reported as ``--timeout``.
 OPTIONS = {
@@ -169,6 +166,15 @@ def cmd_read(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_rate(args) -> None:
+    from handarm.firmware_bridge.motion import check_rate
+
+    try:
+        check_rate(args.rate)
+    except ValueError as exc:
+        raise option_error(exc, OPTIONS) from None
+
+
 def _limits(args, design):
     from handarm.firmware_bridge.motion import MotionLimits
 
@@ -190,10 +196,7 @@ def cmd_goto(args: argparse.Namespace) -> int:
     goal_ticks(design, calibration, q)  # refuse before opening the port
     check_clear(design, q, scene, clearance, "goal")  # refuse before opening the port
     limits = _limits(args, design)
-    from handarm.firmware_bridge.motion import MAX_RATE_HZ
-
-    if not 0 < args.rate <= MAX_RATE_HZ:
-        raise UsageError(f"--rate: expected 0 < Hz <= {MAX_RATE_HZ:g}, got {args.rate}")
+    _check_rate(args)
     with _bus(args, design) as bus:
         samples = goto(
             bus,
@@ -309,10 +312,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
     calibration = _calibration(args, design)
     limits = _limits(args, design)
     scene, clearance = load_scene(args)
-    from handarm.firmware_bridge.motion import MAX_RATE_HZ
-
-    if not 0 < args.rate <= MAX_RATE_HZ:
-        raise UsageError(f"--rate: expected 0 < Hz <= {MAX_RATE_HZ:g}, got {args.rate}")
+    _check_rate(args)
     source = open_source(args.source)
     try:
         check_source_lines(design, source)  # a file's every line, before anything else

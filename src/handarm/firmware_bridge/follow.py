@@ -415,8 +415,8 @@ def follow(
     from handarm.ik.exact import check_clearance
 
     limits = MotionLimits(design) if limits is None else limits
-    dt = 1.0 / check_rate(rate)
     try:
+        dt = 1.0 / check_rate(rate)
         check_clearance(clearance, scene)  # before the bus is touched
         check_source_lines(design, source)  # a file's bad line: refused before any motion
         q_cmd = check_state(bus, design, calibration, max_torque_fraction)
