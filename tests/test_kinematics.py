@@ -141,6 +141,20 @@ def test_each_pair_crosses_by_hand(loose, pair, crossing, clear):
     assert printed[handarm.collision.LINK_PAIRS.index((min(a, b), max(a, b)))]
 
 
+def test_crossings_alike_one_by_one_and_in_bulk(loose):
+    """Few configurations take the six pairs in one call, many pair by pair: same answers."""
+    paper = loose.replace(collision_model="paper")
+    rng = np.random.default_rng(7)
+    q = rng.uniform(paper.lower, paper.upper, (600, 6))
+    q[:40] = np.round(q[:40], 1)  # straight and folded arms: collinear links
+    q[40:60, 1:3] = 0.0
+    bulk = handarm.link_crossings(paper, q)
+    assert bulk.any() and not bulk.all()
+    one = np.array([handarm.link_crossings(paper, row) for row in q])
+    np.testing.assert_array_equal(one, bulk)
+    np.testing.assert_array_equal(handarm.link_crossings(paper, q[:100]), bulk[:100])
+
+
 def test_straight_arm_is_valid(design):
     # all links collinear: rounding noise must not make disjoint segments "cross"
     for psi in np.linspace(-2, 2, 9):
