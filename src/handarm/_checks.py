@@ -17,16 +17,39 @@ def check_design(design: Any, name: str = "design") -> ArmDesign:
 
 
 def check_array(value: Any, name: str, last: int, *, finite: bool = True) -> np.ndarray:
-    """Float array of shape (..., last); raise ValueError naming ``name`` otherwise."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected numbers, got {type(value).__name__}") from None
+    """Float array of shape (..., last); raise ValueError naming ``name`` otherwise.
+
+    Only real numbers: complex values (whose imaginary part a conversion drops with a
+    warning), booleans, strings and other objects are refused, not converted.
+    """
+    arr = real_array(value)
+    if arr is None:
+        raise ValueError(f"{name}: expected real numbers, got {_kind(value)}")
     if arr.ndim == 0 or arr.shape[-1] != last:
         raise ValueError(f"{name}: expected shape (..., {last}), got {arr.shape}")
     if finite and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: contains NaN or infinite values")
     return arr
+
+
+def real_array(value: Any) -> np.ndarray | None:
+    """``value`` as a float array if it holds only real numbers (ints, floats), else None."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):  # ragged
+        return None
+    if arr.dtype.kind not in "iuf":
+        return None
+    return arr.astype(float, copy=False)
+
+
+def _kind(value: Any) -> str:
+    try:
+        kind = np.asarray(value).dtype
+    except (TypeError, ValueError):
+        return f"{type(value).__name__} of uneven rows"
+    names = {"c": "complex numbers", "b": "booleans", "U": "strings", "S": "bytes"}
+    return names.get(kind.kind, type(value).__name__)
 
 
 def check_joints(q: Any, name: str = "q") -> np.ndarray:

@@ -231,12 +231,75 @@ def test_vertical_direction(paper, up):
         ([0.1, 0, 0], [1, 0, np.inf], "e: contains NaN or infinite"),
         ([0.1, 0], [1, 0, 0], r"p: expected shape \(\.\.\., 3\)"),
         ([0.1, 0, 0], [[1, 0, 0]], r"e: expected shape \(3,\)"),
-        ("abc", [1, 0, 0], "p: expected numbers"),
+        ("abc", [1, 0, 0], "p: expected real numbers"),
+        (["0.1", "0", "0.1"], [1, 0, 0], "p: expected real numbers, got strings"),
+        ([0.1, 0, 0.05j], [1, 0, 0], "p: expected real numbers, got complex"),
+        ([0.1, 0, 0.05], [True, False, True], "e: expected real numbers, got booleans"),
     ],
 )
 def test_bad_input_names_the_argument(paper, p, e, message):
     with pytest.raises(ValueError, match=message):
         ik.solve(paper, p, e)
+
+
+@pytest.mark.filterwarnings("error")  # no ComplexWarning: refused, not converted
+def test_complex_input_is_refused_everywhere(paper):
+    """A complex array used to lose its imaginary part with only a warning."""
+    q = np.radians([10, 20, 30, 40, 50, 60])
+    p, e = handarm.forward(paper, q)
+    calls = {
+        "p": lambda: ik.solve(paper, p + 5j, e),
+        "current": lambda: ik.solve(paper, p, e, current=q + 1j),
+        "q": lambda: handarm.is_valid(paper, q + 100j),
+        "P": lambda: ik.count_solutions(paper, [p + 1j], [e]),
+        "E": lambda: ik.solve_batch(paper, [p], [e + 0j]),
+        "branch": lambda: ik.configuration_at(paper, p, e, np.array([1, 1, 1]) + 0j, 0.0),
+    }
+    for name, call in calls.items():
+        with pytest.raises(ValueError, match=f"^{name}: expected "):
+            call()
+
+
+@pytest.mark.parametrize("k", [0, 1, 2, 3, 5, 8, 13])
+def test_at_the_vertical_threshold_every_path_agrees(paper, k):
+    """e tilted by VERTICAL_EPS, give or take an ulp: vertical or not, the same everywhere.
+
+    Python used hypot and the kernels sqrt(x^2 + y^2): at this tilt they disagreed, a solve
+    the kernel did at a free azimuth was reported as not vertical, and configuration_at
+    then rebuilt its ranges on another line (invalid poses).
+    """
+    from handarm.ik._common import VERTICAL_EPS
+
+    p = np.array([-0.0873282353837029, -0.03949620267257718, 0.004612054374459974])
+    rng = np.random.default_rng(k)
+    for h in VERTICAL_EPS * (1.0 + np.arange(-4, 5) * 1.1e-16):
+        phi = rng.uniform(-math.pi, math.pi)
+        e = np.array([h * math.cos(phi), h * math.sin(phi), -1.0])
+        r = ik.solve(paper, p, e, degrade=False)
+        b = ik.solve_batch(paper, [p], [e])
+        assert r.count == b.counts[0] == ik.count_solutions(paper, [p], [e])[0]
+        assert r.vertical == bool(b.vertical[0])
+        for br, (lo, hi), sol in zip(r.branches, r.intervals, r.solutions, strict=True):
+            q = ik.configuration_at(paper, p, e, br, 0.5 * (lo + hi), result=r)
+            assert handarm.is_valid(paper, q)
+            np.testing.assert_allclose(q, sol, atol=1e-9)
+
+
+@pytest.mark.parametrize("joint", [1, 4])
+@pytest.mark.parametrize("angle", [1e-3, -4e-4, 2.5e-3, 1e-5])
+def test_follow_holds_still_near_a_straight_elbow(paper, joint, angle):
+    """current on the target, its elbow (joint 2 or 5) nearly straight: follow is current.
+
+    A straight elbow ends a range on a reach circle, where the angle grows like the root
+    of the distance to the end: the samples kept 1e-7 m off the end, a turn of 1e-3 rad.
+    """
+    q = np.array([0.3, 0.4, -0.4, 0.2, 0.3, 0.3])
+    q[joint] = angle
+    assert handarm.is_valid(paper, q)
+    p, e = handarm.forward(paper, q)
+    r = ik.solve(paper, p, e, current=q)
+    assert r.reached_dof == 5 and not r.family_ended
+    assert np.abs(r.follow - q).max() < 1e-6
 
 
 def test_scale_check_follows_the_design_asked_about():

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numba as nb
+import numpy as np
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -24,6 +25,25 @@ JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 #: inlined. Not for big functions with several callers: each caller compiles its own copy
 #: (inlining ``_solve_target`` too doubled the first compile).
 INLINE = {**JIT, "inline": "always"}
+
+
+def horizontal_length(ex, ey):
+    """|horizontal part of e| as every part of the IK computes it: vertical below VERTICAL_EPS.
+
+    sqrt(ex^2 + ey^2), the same operations in Python, numpy and the kernels
+    (``horizontal``), not ``hypot``, which rounds differently: at a tilt of VERTICAL_EPS the
+    two disagreed, and a solve that found e vertical was reported as not.
+    """
+    return math.sqrt(ex * ex + ey * ey)
+
+
+def horizontal_lengths(E):
+    """``horizontal_length`` of each row of E (n, 3), the same operations element by element."""
+    return np.sqrt(E[:, 0] * E[:, 0] + E[:, 1] * E[:, 1])
+
+
+#: ``horizontal_length`` in the kernels.
+horizontal = nb.njit(**JIT)(horizontal_length)
 
 
 @nb.njit(**JIT)

@@ -16,7 +16,7 @@ import numpy as np
 
 from handarm._collide import N_FRAMES, place_frames
 from handarm._scene import gap, gaps_at, piece_capsule
-from handarm.ik._common import JIT, VERTICAL_EPS
+from handarm.ik._common import JIT, VERTICAL_EPS, horizontal
 from handarm.ik._printed import (
     _MAX_BREAKS,
     _STACK,
@@ -149,7 +149,7 @@ def _count_target(p, e, psi, a, work, mdl, pi, pf, coef, n_pieces, obs, c, min_w
     n = _solve_any_azimuth(p, e, psi, a, q, br, iv, used, work, mdl, False)
     if n < 0 or n > q.shape[0]:
         return -1
-    h = math.hypot(e[0], e[1])
+    h = horizontal(e[0], e[1])
     count = 0
     for k in range(n):
         sign = float(br[k, 0])

@@ -29,7 +29,17 @@ import numba as nb
 import numpy as np
 
 from handarm.ik._classify import canonical_intervals, canonical_valid
-from handarm.ik._common import INLINE, JIT, MAX_CAND, MAX_IV, PI, VERTICAL_EPS, WS_SIZE, wrap
+from handarm.ik._common import (
+    INLINE,
+    JIT,
+    MAX_CAND,
+    MAX_IV,
+    PI,
+    VERTICAL_EPS,
+    WS_SIZE,
+    horizontal,
+    wrap,
+)
 from handarm.ik._events import reach_half_width
 from handarm.ik._printed import configuration as _configuration
 from handarm.ik._printed import free_at, printed_ranges, printed_scratch
@@ -183,7 +193,7 @@ def _solve_any_azimuth(p, e, psi_vertical, a, out_q, out_br, out_iv, psi_used, w
 
     ``first``: stop at the first solution range found (returns 1 if there is one).
     """
-    if e[0] * e[0] + e[1] * e[1] >= VERTICAL_EPS * VERTICAL_EPS:
+    if horizontal(e[0], e[1]) >= VERTICAL_EPS:
         psi_used[0] = math.atan2(e[1], e[0])
         return _solve_target(p, e, 0.0, a, out_q, out_br, out_iv, work, mdl, first)
     # d = +-(cos psi, sin psi) covers psi and psi + pi: a quarter turn each way suffices
@@ -385,7 +395,7 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
     cap = out_q.shape[0]
     mask = _near_groups(p, e, a, mdl[8])
     hx, hy = e[0], e[1]
-    hn = math.sqrt(hx * hx + hy * hy)
+    hn = horizontal(hx, hy)
     if hn < VERTICAL_EPS:
         hx, hy, hn = math.cos(psi_vertical), math.sin(psi_vertical), 1.0
     total = 0
@@ -578,9 +588,10 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
 
     The squared joint-space distance is sampled at ``samples`` points a hair inside the
     ends; the best sample is refined by ``refine`` golden-section steps between its
-    neighbours. ``out[0]`` gets the best sample, ``out[1]`` the refined point, ``out[2]``
-    and ``out[3]`` the exact ends lo and hi (a joint at its limit, where a range ridden to
-    its end stops); returns their squared distances (inf where unreachable).
+    neighbours (out to the end itself from an end sample). ``out[0]`` gets the best sample,
+    ``out[1]`` the refined point, ``out[2]`` and ``out[3]`` the exact ends lo and hi (a
+    joint at its limit, where a range ridden to its end stops); returns their squared
+    distances (inf where unreachable).
     """
     fr = np.empty(FRAMES_SIZE)
     _frames(p, e, dx, dy, a, fr)
@@ -602,7 +613,11 @@ def nearest_along_u(p, e, dx, dy, lo, hi, elbow_b, elbow_e, a, current, samples,
                 out[0, :] = q
     if k < 0:
         return np.inf, np.inf, end_lo, end_hi
-    x0, x1 = u0 + max(k - 1, 0) * step, u0 + min(k + 1, samples - 1) * step
+    # between the best sample's neighbours, out to the exact end for an end sample: near a
+    # reach circle (a straight elbow) an angle grows like the root of the distance to the
+    # end, so the hair the samples keep off it is a visible turn
+    x0 = u0 + (k - 1) * step if k > 0 else lo
+    x1 = u0 + (k + 1) * step if k < samples - 1 else hi
     g = 0.5 * (math.sqrt(5.0) - 1.0)
     c, d = x1 - g * (x1 - x0), x0 + g * (x1 - x0)
     fc = _distance2(q, current) if _configuration(fr, dx, dy, c, elbow_b, elbow_e, a, q) else np.inf
@@ -696,7 +711,7 @@ def sub_problems_solvable(p, e, psi_vertical, a, lower, upper, mdl):
     work = _workspace(lower, upper, mdl[1].shape[0])
     lb, lt, iv_b, iv_t, cnt_b, cnt_t, allowed, q, fr, buf, tags, ws, sub, sure, sc = work
     hx, hy = e[0], e[1]
-    hn = math.sqrt(hx * hx + hy * hy)
+    hn = horizontal(hx, hy)
     if hn < VERTICAL_EPS:
         hx, hy, hn = math.cos(psi_vertical), math.sin(psi_vertical), 1.0
     base, tip = False, False

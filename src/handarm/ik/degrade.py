@@ -1091,7 +1091,7 @@ def _single_point(design, q, p, e, dof, position_error, current) -> IKResult:
         dof,
         position_error,
         0.0 if dof == 5 else float(_angle(e_reached, e)),
-        math.hypot(e_reached[0], e_reached[1]) < S.VERTICAL_EPS,
+        S.horizontal_length(e_reached[0], e_reached[1]) < S.VERTICAL_EPS,
         psi if branch[0] > 0 else psi - math.copysign(math.pi, psi),
         p_reached.copy(),
         e_reached.copy(),

@@ -15,11 +15,11 @@ import math
 
 import numpy as np
 
-from handarm._checks import check_array, check_design, check_joints, check_number
+from handarm._checks import check_array, check_design, check_joints, check_number, real_array
 from handarm.collision import kernel_coefficients, kernel_env, kernel_far, kernel_tables
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
-from handarm.ik._common import VERTICAL_EPS, wrap
+from handarm.ik._common import VERTICAL_EPS, horizontal_length, horizontal_lengths, wrap
 from handarm.ik.results import MAX_SOLUTIONS, BatchResult, IKResult
 from handarm.kinematics import forward, is_valid, joint_positions
 
@@ -165,7 +165,7 @@ def check_current(current, name: str = "current", rows: bool = False) -> np.ndar
 
 def _azimuth(p: np.ndarray, e: np.ndarray, current: np.ndarray | None) -> tuple[bool, float]:
     """Whether e is vertical, and the azimuth of d = +1 (fixed rule when vertical)."""
-    h = math.hypot(e[0], e[1])
+    h = horizontal_length(e[0], e[1])
     if h >= VERTICAL_EPS:
         return False, math.atan2(e[1], e[0])
     if current is not None:
@@ -189,11 +189,8 @@ def _order(solutions, branches, intervals, current):
 
 def _vector(value, size: int):
     """The (float array, its floats) of ``value`` when it is ``size`` finite numbers, else None."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    if arr.shape != (size,):
+    arr = real_array(value)
+    if arr is None or arr.shape != (size,):
         return None
     xs = arr.tolist()
     if not all(map(math.isfinite, xs)):
@@ -448,7 +445,7 @@ def solve_batch(
         br = np.concatenate([br, np.zeros((len(P), pad, 3), np.int8)], axis=1)
         iv = np.concatenate([iv, np.full((len(P), pad, 2), np.nan)], axis=1)
         sols[over], br[over], iv[over], counts[over] = s2, b2, i2, c2
-    h = np.hypot(E[:, 0], E[:, 1])
+    h = horizontal_lengths(E)
     truncated = np.zeros(len(P), bool)
     return BatchResult(counts, sols, br, iv, truncated, h < VERTICAL_EPS, used)
 
@@ -701,8 +698,8 @@ def configurations_along(
 
 
 def _check_branch(branch) -> np.ndarray:
-    br = np.asarray(branch)
-    if br.shape != (3,) or not np.all(np.isin(br, (-1, 1))):
+    br = real_array(branch)
+    if br is None or br.shape != (3,) or not np.all(np.isin(br, (-1, 1))):
         raise ValueError(f"branch: expected three signs +1/-1, got {branch!r}")
     return br
 
@@ -713,7 +710,7 @@ def _line_directions(p, e, signs, azimuth) -> tuple[np.ndarray, np.ndarray]:
     h / |h| with h the horizontal part of e, or the azimuth for a vertical e.
     """
     signs = np.asarray(signs, dtype=float)
-    h = math.hypot(e[0], e[1])
+    h = horizontal_length(e[0], e[1])
     if h >= VERTICAL_EPS:
         return signs * float(e[0]) / h, signs * float(e[1]) / h
     psi = _default_vertical_azimuth(p) if azimuth is None else float(azimuth)

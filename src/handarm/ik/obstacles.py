@@ -20,7 +20,7 @@ import numpy as np
 
 from handarm.design import ArmDesign
 from handarm.ik import _solve as K
-from handarm.ik._common import VERTICAL_EPS
+from handarm.ik._common import VERTICAL_EPS, horizontal_lengths
 from handarm.ik._obstacles import (
     SAMPLES,
     SPLIT_CAP,
@@ -205,7 +205,7 @@ def solve_batch_in_scene(
     """
     counts = count_in_scene(design, P, E, scene, clearance)
     P, E, psi = _check_batch(design, P, E)
-    vertical = np.hypot(E[:, 0], E[:, 1]) < VERTICAL_EPS
+    vertical = horizontal_lengths(E) < VERTICAL_EPS
     # the azimuth of L: e's own, or for a vertical e the one its solve used (else psi's)
     azimuth = np.where(vertical, psi, np.arctan2(E[:, 1], E[:, 0]))
     width = max(MAX_SOLUTIONS, int(counts.max(initial=0)))
