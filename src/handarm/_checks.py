@@ -38,9 +38,21 @@ def real_array(value: Any) -> np.ndarray | None:
         arr = np.asarray(value)
     except (TypeError, ValueError):  # ragged
         return None
-    if arr.dtype.kind not in "iuf":
+    if arr.dtype.kind not in "iuf" or _holds_bool(value):
         return None
     return arr.astype(float, copy=False)
+
+
+def _holds_bool(value: Any) -> bool:
+    """A boolean inside nested lists: numpy makes [True, 0.5] an array of numbers."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        for v in value:  # one loop per level: a list of 1e5 points costs ~10 ms
+            t = type(v)
+            if t is bool or t is np.bool_ or ((t is list or t is tuple) and _holds_bool(v)):
+                return True
+    return False
 
 
 def _kind(value: Any) -> str:

@@ -302,6 +302,48 @@ def test_follow_holds_still_near_a_straight_elbow(paper, joint, angle):
     assert np.abs(r.follow - q).max() < 1e-6
 
 
+def _at_two_limits(design, rng, n, same):
+    """n valid configurations with two joints at a limit each: of one sub-problem or not."""
+    out = []
+    while len(out) < n:
+        q = rng.uniform(design.lower, design.upper)
+        if same:
+            i, j = rng.choice(3, 2, replace=False) + 3 * rng.integers(2)
+        else:
+            i, j = rng.integers(3), 3 + rng.integers(3)
+        for k in (i, j):
+            q[k] = design.upper[k] if rng.random() < 0.5 else design.lower[k]
+        if handarm.is_valid(design, q):
+            out.append(q)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("same", [True, False], ids=["one sub-problem", "one each"])
+@pytest.mark.parametrize("model", ["printed", "paper"])
+def test_two_joints_at_their_limits_are_solved(paper, same, model):
+    """Where two limits meet, the valid set along u can be one point: it is a range.
+
+    Rounding put the two limit events a hair apart either way; the wrong way (in a third
+    of such poses) the point was dropped: no exact solution, and follow jumped.
+    """
+    design = paper.replace(collision_model=model)
+    rng = np.random.default_rng(5 if same else 6)
+    q = _at_two_limits(design, rng, 40, same)
+    P, E = handarm.forward(design, q)
+    br_q, u_q = generator_branch_and_u(design, q)
+    counts = ik.count_solutions(design, P, E)
+    for k in range(len(q)):
+        r = ik.solve(design, P[k], E[k], current=q[k])
+        assert r.reached_dof == 5 and r.count == counts[k]
+        inside = [
+            (b == br_q[k]).all() and lo - 1e-9 <= u_q[k] <= hi + 1e-9
+            for b, (lo, hi) in zip(r.branches, r.intervals, strict=True)
+        ]
+        assert any(inside), (q[k].tolist(), r.intervals.tolist())
+        assert handarm.is_valid(design, r.solutions).all()
+        assert np.abs(r.follow - q[k]).max() < 1e-6 and not r.family_ended
+
+
 def test_scale_check_follows_the_design_asked_about():
     """The reach each solve checks against is the design's own, whichever was solved before.
 

@@ -6,7 +6,7 @@ import math
 
 import numba as nb
 
-from handarm.ik._common import JIT, MAX_IV, MERGE_GAP, wrap
+from handarm.ik._common import JIT, MAX_IV, MERGE_GAP, POINT_GAP, widened, wrap
 from handarm.ik._events import ELBOW_NEG, ELBOW_POS, canonical_events
 from handarm.kinematics import COLLINEAR_TOL
 
@@ -122,17 +122,28 @@ def canonical_intervals(
             while i1 < n - 1 and tags[i1] == other:
                 i1 += 1
             t0, t1 = buf[i0], buf[i1]
-            if t1 <= t0:
-                continue
             if n_allowed >= 0:
-                while j < n_allowed and allowed[j, 1] <= t0:
+                # (an allowed range that only touches the gap may meet it in one point)
+                while j < n_allowed and allowed[j, 1] < t0 - POINT_GAP:
                     j += 1
-                if j >= n_allowed or allowed[j, 0] >= t1:
+                if j >= n_allowed or allowed[j, 0] > t1 + POINT_GAP:
                     open_ = False
                     continue
-            ok = canonical_valid(
-                nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi, paper
-            )
+            if t1 - t0 <= POINT_GAP:
+                # two events at one tau, two joints at their limits at once (an event of
+                # each sub-problem's three): the valid set may be that point alone, whose
+                # limits hold to the events' rounding
+                if i0 == 0 or i1 == n - 1:
+                    continue  # the window's ends: the caller's stretch stops there
+                ok = canonical_valid(
+                    nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, widened(lim), psi,
+                    paper,
+                )  # fmt: skip
+                t0 = t1 = 0.5 * (t0 + t1)
+            else:
+                ok = canonical_valid(
+                    nx, ny, dx, dy, 0.5 * (t0 + t1), elbow, b0, b1, b2, b3, lim, psi, paper
+                )
             if ok and (open_ or (counts[e] > 0 and t0 - iv[e, counts[e] - 1, 1] <= MERGE_GAP)):
                 # contiguous, or across a hole narrower than MERGE_GAP (a tangency)
                 iv[e, counts[e] - 1, 1] = t1

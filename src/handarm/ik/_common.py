@@ -17,6 +17,15 @@ VERTICAL_EPS = 1e-12  # |horizontal part of e| below this: the direction is vert
 MERGE_GAP = 2e-9
 WS_SIZE = 128
 
+#: rad: a joint angle this far or less beyond a limit is the limit, rounded (a range that
+#: ends where a joint meets its limit, or a zero-length one there).
+LIMIT_SNAP = 1e-10
+#: m: a range this narrow or less is one configuration, where two joints meet their limits
+#: at once (the valid set is a point); its limits are checked with ``LIMIT_SNAP`` of slack,
+#: the rounding of the events that bound it (their u differs by ~1e-16 m, by 1e-10 rad of
+#: joint angle only along ~5e-12 m of the line).
+POINT_GAP = 1e-12
+
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 #: For thin wrappers and one-caller helpers on hot paths. At every call numba counts a
 #: reference up and down for each array argument, each member of a tuple argument included:
@@ -40,6 +49,15 @@ def horizontal_length(ex, ey):
 def horizontal_lengths(E):
     """``horizontal_length`` of each row of E (n, 3), the same operations element by element."""
     return np.sqrt(E[:, 0] * E[:, 0] + E[:, 1] * E[:, 1])
+
+
+@nb.njit(**JIT)
+def widened(lim):
+    """Limits (lo, hi, lo, hi, lo, hi) widened by ``LIMIT_SNAP`` on each side."""
+    out = np.empty(6)
+    for k in range(3):
+        out[2 * k], out[2 * k + 1] = lim[2 * k] - LIMIT_SNAP, lim[2 * k + 1] + LIMIT_SNAP
+    return out
 
 
 #: ``horizontal_length`` in the kernels.

@@ -32,12 +32,15 @@ from handarm.ik._classify import canonical_intervals, canonical_valid
 from handarm.ik._common import (
     INLINE,
     JIT,
+    LIMIT_SNAP,
     MAX_CAND,
     MAX_IV,
     PI,
+    POINT_GAP,
     VERTICAL_EPS,
     WS_SIZE,
     horizontal,
+    widened,
     wrap,
 )
 from handarm.ik._events import reach_half_width
@@ -243,11 +246,6 @@ def _valid_at(fr, dx, dy, u, elbow_b, elbow_e, a, lb, lt, paper):
     )
 
 
-#: rad: a joint angle this far or less beyond a limit is the limit, rounded (a range that
-#: ends where a joint meets its limit, or a zero-length one there).
-LIMIT_SNAP = 1e-10
-
-
 @nb.njit(**JIT)
 def snap_to_limits(q, lower, upper):
     """Angles of q (6,) within ``LIMIT_SNAP`` beyond a limit set onto it, in place.
@@ -273,6 +271,10 @@ def _representative(fr, dx, dy, lo, hi, elbow_b, elbow_e, a, lb, lt, q, mdl, sc,
     printed-link model holds on the whole range (``printed_ranges``), so only the limits
     are checked.
     """
+    if hi - lo <= POINT_GAP:
+        # a single configuration between two limits: they hold to their rounding (the
+        # caller snaps the angles onto them)
+        lb, lt = widened(lb), widened(lt)
     frac = 0.5
     step = 0.25
     for attempt in range(13):
@@ -467,7 +469,12 @@ def _solve_target(p, e, psi_vertical, a, out_q, out_br, out_iv, work, mdl, first
                     t_hi = -(iv_t[ee, cnt_t[ee] - 1 - j, 0] + fr[7])
                     lo = max(b_lo, t_lo)
                     hi = min(b_hi, t_hi)
-                    if lo < hi:
+                    if hi < lo <= hi + POINT_GAP:
+                        # the base's range ends where the tip's starts (a joint of each at
+                        # its limit at once): one configuration, which rounding of the two
+                        # sub-problems' events put a hair to either side
+                        lo = hi = 0.5 * (lo + hi)
+                    if lo <= hi:
                         elbow_b = 1.0 if eb == 0 else -1.0
                         if first and not paper and min_width == 0.0:
                             # whether, not how many: a valid configuration at the middle

@@ -28,7 +28,8 @@ class IKResult:
     branches : ndarray of int, shape (k, 3)
         (sign of d, elbow of B, elbow of E), each +1/-1.
     intervals : ndarray, shape (k, 2)
-        [u_lo, u_hi] of joint 4 along L for each range (m).
+        [u_lo, u_hi] of joint 4 along L for each range (m); u_lo == u_hi where two joints
+        meet their limits at once and that one configuration is the range.
     reached_dof : int
         5 when the target is reached exactly; 4, 3 or 2 when degraded (see ``degrade``);
         0 when there is no range (nothing reached).
