@@ -225,3 +225,90 @@ def test_follow_checks_a_whole_file_first_and_says_when_it_stalls(tmp_path, caps
         assert code == 3 and "Traceback" not in err, err
         # the preparing line, then the one error line
         assert "error: the arm held short of the last target" in err.strip().splitlines()[-1]
+
+
+def test_live_commands_keep_the_limits_as_printed(tmp_path, capsys):
+    """apply, goto and follow used the design's requested limits with no way to give the
+    carving's (a hostile check drove joint 1 to 127 deg, 40 deg past where the printed cable
+    meets the link). With --achieved they keep the limits export writes."""
+    import numpy as np
+
+    import handarm
+
+    carve_json = tmp_path / "carve.json"
+    achieved = [[-80.0, 75.0]] + [[-100.0, 100.0]] * 5
+    carve_json.write_text(json.dumps({"joints": [{"achieved_deg": a} for a in achieved]}))
+    # horns seated mid-travel: narrowed to +-100 deg, motors 2..6 fit joint mode too
+    with EmulatedBus(positions=dict.fromkeys(range(1, 7), 2048)) as emu:
+        cal = tmp_path / "cal.json"
+        port = ["--port", emu.port, "--timeout", TIMEOUT]
+        assert run(capsys, "bridge", "calibrate", *port, "--out", cal)[0] == 0
+        ctl = tmp_path / "ctl"
+        code, _, err = run(
+            capsys, "bridge", "export", "--achieved", carve_json, "--calibration", cal, "--out", ctl
+        )
+        assert code == 0, err
+        exported = json.loads((ctl / "controller.json").read_text())["servos"][0]
+        live = [*port, "--calibration", cal, "--achieved", carve_json]
+        code, out, err = run(capsys, "bridge", "apply", *live)
+        assert code == 0, err
+        first = out.splitlines()[0]
+        assert f"cw_angle_limit={exported['cw_angle_limit']}," in first, (first, exported)
+        assert f"ccw_angle_limit={exported['ccw_angle_limit']}" in first
+        # a goal the design allows (+-135 deg) but the parts do not: refused, nothing sent
+        before = len(emu.log)
+        code, _, err = run(capsys, "bridge", "goto", "100", "0", "0", "0", "0", "0", *live)
+        _one_line(code, err)
+        assert "joint 1" in err and len(emu.log) == before
+        code, out, err = run(capsys, "bridge", "goto", "70", "0", "0", "0", "0", "0", *live)
+        assert code == 0, err
+        # follow a target the design reaches only beyond the achieved limit of joint 1
+        design = handarm.ArmDesign()
+        p, e = handarm.forward(design, np.radians([120, 10, 0, 0, 0, 0]))
+        src = tmp_path / "beyond.jsonl"
+        src.write_text(json.dumps({"p": list(p), "e": list(e)}) + "\n")
+        code, out, err = run(capsys, "bridge", "follow", *live, "--source", src)
+        code, out, err = run(capsys, "bridge", "read", *port, "--calibration", cal)
+        assert code == 0, err
+        assert abs(float(out.split()[0])) <= 75.0 + 0.2, out
+        bad = tmp_path / "bad.json"
+        bad.write_text(json.dumps({"joints": [{"achieved_deg": [150, 160]}] * 6}))
+        before = len(emu.log)
+        code, _, err = run(capsys, "bridge", "apply", *port, "--achieved", bad)
+        _one_line(code, err)
+        assert "--achieved" in err and len(emu.log) == before
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ({"p": [0.2, 0, 0], "e": [1, 0, 0], "handel": {}}, "unknown key 'handel'"),
+        ({"p": [0.2, 0, 0], "e": [1, 0, 0], "handle": {"R": [[1, 0, 0]] * 3, "x": 1}}, "'x'"),
+        ({"p": ["0.12", 0.05, 0.08], "e": [1, 0, 0]}, "'p' missing or not numbers"),
+        ({"p": [0.12, 0.05, 0.08], "e": [True, 0, 0]}, "'e' missing or not numbers"),
+        ({"p": [0.2, 0, 0], "e": [1, 0, 0], "handle": [1, 2]}, "'handle' must be an object"),
+    ],
+)
+def test_target_lines_take_known_keys_and_numbers_only(line, message):
+    """A misspelt 'handle' was ignored (the target silently in another frame), and strings
+    and booleans were converted to numbers (a hostile check of follow)."""
+    import handarm
+    from handarm.firmware_bridge.follow import check_target_line
+
+    with pytest.raises(ValueError, match=message):
+        check_target_line(handarm.ArmDesign(), json.dumps(line), "target line 1")
+
+
+def test_follow_refuses_a_file_without_targets(tmp_path, capsys):
+    empty = tmp_path / "empty.jsonl"
+    empty.write_text("\n  \n")
+    with EmulatedBus(positions=START) as emu:
+        cal = tmp_path / "cal.json"
+        port = ["--port", emu.port, "--timeout", TIMEOUT]
+        assert run(capsys, "bridge", "calibrate", *port, "--out", cal)[0] == 0
+        before = len(emu.log)
+        code, _, err = run(
+            capsys, "bridge", "follow", *port, "--calibration", cal, "--source", empty
+        )
+        _one_line(code, err)
+        assert "--source: the file holds no target line" in err and len(emu.log) == before

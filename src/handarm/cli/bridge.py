@@ -31,6 +31,7 @@ OPTIONS = {
     "baud": "--baud",
     "port": "--port",
     "out": "--out",
+    "source": "--source",
 }
 
 
@@ -55,6 +56,22 @@ def _achieved_limits(path):
     try:
         return read_achieved_limits(path)
     except (OSError, ValueError) as exc:
+        raise UsageError(f"--achieved: {exc}") from None
+
+
+def _live_design(args: argparse.Namespace):
+    """The design a live command drives: its limits narrowed to ``--achieved``'s, if given.
+
+    Without ``--achieved`` the limits are the design's as requested, which the printed parts
+    may not allow (a cable meeting a link first; the bridge guide says so).
+    """
+    design = load_design(args.design)
+    achieved = _achieved_limits(args.achieved)
+    if achieved is None:
+        return design
+    try:
+        return design.limited_to(achieved)
+    except ValueError as exc:
         raise UsageError(f"--achieved: {exc}") from None
 
 
@@ -131,7 +148,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
     """Check all six servos, write their settings and verify them."""
     from handarm.firmware_bridge.bus import apply_settings
 
-    design = load_design(args.design)
+    design = _live_design(args)
     calibration = _calibration(args, design, required=False)
     with _bus(args, design) as bus:
         settings = apply_settings(bus, design, calibration, args.max_torque)
@@ -187,9 +204,9 @@ def _limits(args, design):
 def cmd_goto(args: argparse.Namespace) -> int:
     """Move to joint targets (degrees) along a collision-free timed path."""
     from handarm.firmware_bridge.bus import goal_ticks, goto
-    from handarm.firmware_bridge.motion import check_clear
+    from handarm.firmware_bridge.motion import PlanningError, check_clear, check_timing
 
-    design = load_design(args.design)
+    design = _live_design(args)
     calibration = _calibration(args, design)
     scene, clearance = load_scene(args)
     q = np.radians(args.q)
@@ -197,6 +214,10 @@ def cmd_goto(args: argparse.Namespace) -> int:
     check_clear(design, q, scene, clearance, "goal")  # refuse before opening the port
     limits = _limits(args, design)
     _check_rate(args)
+    try:
+        check_timing()  # an extra missing on a plain install: before the port is opened
+    except PlanningError as exc:
+        raise UsageError(str(exc)) from None
     with _bus(args, design) as bus:
         samples = goto(
             bus,
@@ -308,7 +329,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
         open_source,
     )
 
-    design = load_design(args.design)
+    design = _live_design(args)
     calibration = _calibration(args, design)
     limits = _limits(args, design)
     scene, clearance = load_scene(args)
@@ -488,6 +509,13 @@ def register(sub) -> None:
                 default=1.0,
                 metavar="FRACTION",
                 help="Max Torque as a fraction of 1023, as given to apply (default 1)",
+            )
+        if name in ("apply", "goto", "follow"):
+            p.add_argument(
+                "--achieved",
+                metavar="CARVE_JSON",
+                help="carve.json from 'handarm build' or 'handarm carve': keep the joints "
+                "within the limits the printed parts allow",
             )
         if name in ("goto", "follow"):
             add_scene_options(p)

@@ -31,6 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from handarm._checks import real_array
 from handarm.design import ArmDesign
 from handarm.firmware_bridge.bus import (
     ServoBus,
@@ -72,13 +73,21 @@ SETTLED = 1e-9
 
 
 def _vector(obj, key: str, where: str) -> np.ndarray:
-    try:
-        v = np.asarray(obj[key], dtype=float)
-    except (KeyError, TypeError, ValueError):
-        raise ValueError(f"{where}: '{key}' missing or not numbers") from None
+    v = real_array(obj.get(key)) if key in obj else None
+    if v is None:  # missing, or strings, booleans ("0.1", true): not converted
+        raise ValueError(f"{where}: '{key}' missing or not numbers")
     if v.shape != (3,) or not np.all(np.isfinite(v)):
         raise ValueError(f"{where}: '{key}' must be 3 finite numbers")
     return v
+
+
+def _known_keys(obj: dict, known: tuple[str, ...], where: str) -> None:
+    """Refuse a key not in ``known``: a misspelt 'handle' would change the target's frame."""
+    unknown = sorted(set(obj) - set(known))
+    if unknown:
+        raise ValueError(
+            f"{where}: unknown key {unknown[0]!r} (expected {', '.join(map(repr, known))})"
+        )
 
 
 def parse_target(line: str, where: str = "target") -> tuple[np.ndarray, np.ndarray]:
@@ -89,13 +98,16 @@ def parse_target(line: str, where: str = "target") -> tuple[np.ndarray, np.ndarr
         raise ValueError(f"{where}: not JSON: {exc}") from None
     if not isinstance(obj, dict):
         raise ValueError(f"{where}: expected a JSON object")
+    _known_keys(obj, ("p", "e", "handle"), where)
     p, e = _vector(obj, "p", where), _vector(obj, "e", where)
     if "handle" in obj:
         handle = obj["handle"]
-        try:
-            r = np.asarray(handle["R"], dtype=float)
-        except (KeyError, TypeError, ValueError):
-            raise ValueError(f"{where}: 'handle.R' missing or not numbers") from None
+        if not isinstance(handle, dict):
+            raise ValueError(f"{where}: 'handle' must be an object with R and t")
+        _known_keys(handle, ("R", "t"), f"{where}: handle")
+        r = real_array(handle.get("R")) if "R" in handle else None
+        if r is None:
+            raise ValueError(f"{where}: 'handle.R' missing or not numbers")
         if (
             r.shape != (3, 3)
             or not np.all(np.isfinite(r))
@@ -137,6 +149,8 @@ def check_source_lines(design: ArmDesign, source: TargetSource) -> int:
         if line.strip():
             check_target_line(design, line, f"target line {n}")
             count += 1
+    if count == 0:
+        raise ValueError("source: the file holds no target line (it is empty or blank)")
     return count
 
 

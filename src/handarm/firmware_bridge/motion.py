@@ -295,6 +295,19 @@ def check_rate(rate) -> float:
     return float(rate)
 
 
+def check_timing() -> None:
+    """Raise PlanningError if ruckig, which times every move, is not installed.
+
+    ``handarm bridge goto`` asks first, before it opens the port.
+    """
+    try:
+        import ruckig  # noqa: F401
+    except ImportError:  # pragma: no cover - the test extra installs it
+        raise PlanningError(
+            "timing: ruckig is not installed (pip install 'handarm[bridge]')"
+        ) from None
+
+
 def time_path(design: ArmDesign, waypoints, limits: MotionLimits, rate: float) -> np.ndarray:
     """Sample a waypoint path at ``rate`` Hz, timed with ruckig, shape (n, 6) rad.
 
@@ -308,12 +321,9 @@ def time_path(design: ArmDesign, waypoints, limits: MotionLimits, rate: float) -
     ValueError
         If ``rate`` is not within (0, ``MAX_RATE_HZ``].
     """
-    try:
-        from ruckig import InputParameter, Result, Ruckig, Trajectory
-    except ImportError:  # pragma: no cover - the test extra installs it
-        raise PlanningError(
-            "timing: ruckig is not installed (pip install 'handarm[bridge]')"
-        ) from None
+    check_timing()
+    from ruckig import InputParameter, Result, Ruckig, Trajectory
+
     check_rate(rate)
     waypoints = np.asarray(waypoints, float)
     k = coupling_matrix(design)
