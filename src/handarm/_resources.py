@@ -92,12 +92,17 @@ def check_resources(
     max_memory: float = DEFAULT_MAX_MEMORY,
     max_seconds: float = DEFAULT_MAX_SECONDS,
     time_factor: float = 1.0,
+    remedy: tuple[str, str] = (
+        "raise it with max_memory / --max-memory",
+        "raise it with max_seconds / --max-minutes",
+    ),
 ) -> None:
     """Refuse (ValueError naming the setting, with the estimate) a job over the limits.
 
     ``time_factor``: the whole job's time over the estimated one's (a map with its
     sensitivity screen, in a scene), so that the message quotes the job against the limit
-    the user gave.
+    the user gave. ``remedy``: what the message suggests for memory and for time (the
+    options of the caller that has them).
     """
     _check_settings(voxel, directions, resolution_deg)
     if voxel is not None:
@@ -113,12 +118,12 @@ def check_resources(
     if memory > max_memory:
         raise ValueError(
             f"{what}: the job needs about {memory / 2**30:.1f} GiB of memory, over the "
-            f"{max_memory / 2**30:g} GiB limit (raise it with max_memory / --max-memory)"
+            f"{max_memory / 2**30:g} GiB limit ({remedy[0]})"
         )
     if seconds > max_seconds:
         raise ValueError(
             f"{what}: the job needs about {_minutes(seconds)} min, over the "
-            f"{max_seconds / 60:g} min limit (raise it with max_seconds / --max-minutes)"
+            f"{max_seconds / 60:g} min limit ({remedy[1]})"
         )
 
 

@@ -148,3 +148,13 @@ def test_study_and_workspace_commands(study_file, tmp_path, capsys):
     assert (tmp_path / "w" / "workspace.npz").exists()
     code = main(["study", str(tmp_path / "none.toml"), "--out", str(tmp_path / "x")])
     assert code == 2 and "study file not found" in capsys.readouterr().err
+
+
+def test_a_study_over_the_limits_suggests_what_it_has(tmp_path):
+    """The refusal told study users to pass --max-memory, which study does not take."""
+    path = tmp_path / "huge.toml"
+    path.write_text(STUDY.replace("voxel = 0.05", "voxel = 0.0008").replace("= 12", "= 1936"))
+    with pytest.raises(ValueError, match="coarser voxel or fewer directions") as info:
+        run_study(load_study(path), tmp_path / "out")
+    assert "--max" not in str(info.value)
+    assert not (tmp_path / "out").exists()

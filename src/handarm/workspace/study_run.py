@@ -126,7 +126,10 @@ def run_study(
         isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
     ):
         raise ValueError(f"workers: expected an integer >= 1, got {workers!r}")
-    check_resources(study.base, voxel=study.voxel, directions=study.directions)
+    coarser = "per design: give the study file a coarser voxel or fewer directions"
+    check_resources(
+        study.base, voxel=study.voxel, directions=study.directions, remedy=(coarser, coarser)
+    )
     check_scheduler(scheduler)
     out = check_out_dir(out)
     settings = study_settings(study)
