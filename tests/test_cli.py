@@ -12,6 +12,7 @@ import pytest
 from handarm import ArmDesign
 from handarm._outdir import INCOMPLETE, LOCK, MANIFEST
 from handarm.cli import main, make_parser
+from handarm.pipeline import BUILD_LAYOUT, CARVE_LAYOUT
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -111,8 +112,42 @@ def test_build_from_a_design_file_writes_everything(tmp_path, capsys):
     assert not list(b.rglob("*.tmp")) and not (b / INCOMPLETE).exists()
     files = {p for p in b.rglob("*") if p.is_file()} - {b / MANIFEST, b / LOCK}
     assert {Path(line) for line in out.split()} == files
+    # what the build checks for in its way before any work is what it writes
+    assert _top_level(b, files) == _layout(BUILD_LAYOUT, "mine")
     report = json.loads((b / "workspace" / "workspace.json").read_text())
     assert (report["voxel_m"], report["directions"]) == (0.05, 16)
+
+
+def _top_level(out, files):
+    """(folders, files) at the top of ``out`` among the paths ``files``."""
+    rel = [p.relative_to(out).parts for p in files]
+    return {r[0] for r in rel if len(r) > 1}, {r[0] for r in rel if len(r) == 1}
+
+
+def _layout(layout, name):
+    return set(layout[0]), {f.format(name=name) for f in layout[1]}
+
+
+@pytest.mark.parametrize(
+    ("command", "in_the_way", "message"),
+    [
+        ("carve", "meshes", "is in the way of the folder"),
+        ("carve", "carve.json/", "is a folder where a file"),
+        ("build", "controller", "is in the way of the folder"),
+        ("build", "summary.txt/", "is a folder where a file"),
+    ],
+)
+def test_what_is_in_the_way_is_refused_before_any_work(tmp_path, capsys, command, in_the_way,
+                                                        message):  # fmt: skip
+    """A file named meshes in --out was found after the carving (a raw 'File exists')."""
+    out = tmp_path / "o"
+    out.mkdir()
+    path = out / in_the_way.rstrip("/")
+    path.mkdir() if in_the_way.endswith("/") else path.write_text("mine")
+    code, _, err = run(capsys, command, "--out", str(out), "--quiet")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert message in err and "--out" in err, err
+    assert sorted(p.name for p in out.iterdir()) == [path.name]  # nothing written
 
 
 def test_build_map_settings_are_checked_before_any_work(tmp_path, capsys):
@@ -240,6 +275,9 @@ def test_carve_command(tmp_path, capsys):
         req, ach, built = j["requested_deg"], j["achieved_deg"], j["as_built_deg"]
         assert built == [max(req[0], ach[0]), min(req[1], ach[1])]
     assert (tmp_path / "c" / "handarm-build.json").exists()  # a manifest, as a build has
+    manifest = json.loads((tmp_path / "c" / "handarm-build.json").read_text())["files"]
+    written = {tmp_path / "c" / f for f in manifest}
+    assert _top_level(tmp_path / "c", written) == _layout(CARVE_LAYOUT, "paper_arm")
     assert "warning" not in err and "thin wall" not in out  # the paper's arm keeps min_wall
 
 

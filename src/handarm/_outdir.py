@@ -19,7 +19,7 @@ from pathlib import Path
 
 from handarm._io import write_text_atomic
 
-__all__ = ["MANIFEST", "INCOMPLETE", "LOCK", "check_out_dir", "build_folder"]
+__all__ = ["MANIFEST", "INCOMPLETE", "LOCK", "check_out_dir", "check_layout", "build_folder"]
 
 MANIFEST = "handarm-build.json"
 INCOMPLETE = ".handarm-incomplete"
@@ -67,6 +67,27 @@ def check_out_dir(out: str | os.PathLike[str], name: str = "out") -> Path:
             ):
                 raise ValueError(f"{name}: {Path(root, f)} is not a regular file; remove it first")
     return out
+
+
+def check_layout(
+    out: Path, folders: tuple[str, ...], files: tuple[str, ...], name: str = "out"
+) -> None:
+    """Refuse, before any work, what is in the way of the outputs at the top of ``out``.
+
+    ``folders`` and ``files``: the names the job writes there. A file (or link) named like
+    one of its folders, a folder it cannot write into, or a folder named like one of its
+    files was found only when the outputs came to be written, after minutes of carving.
+    """
+    for f in folders:
+        p = out / f
+        if p.is_symlink() or (p.exists() and not p.is_dir()):
+            raise ValueError(f"{name}: {p} is in the way of the folder of that name; remove it")
+        if p.is_dir() and not os.access(p, os.W_OK | os.X_OK):
+            raise ValueError(f"{name}: {p} is not writable")
+    for f in files:
+        p = out / f
+        if p.is_dir() and not p.is_symlink():
+            raise ValueError(f"{name}: {p} is a folder where a file of that name is written")
 
 
 def _remove_stale_tmp(out: Path) -> None:

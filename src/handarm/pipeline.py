@@ -20,7 +20,7 @@ from tqdm import tqdm
 
 from handarm._checks import check_design
 from handarm._io import write_text_atomic
-from handarm._outdir import build_folder, check_out_dir
+from handarm._outdir import build_folder, check_layout, check_out_dir
 from handarm._resources import DEFAULT_MAX_MEMORY, DEFAULT_MAX_SECONDS, check_resources
 from handarm.cad_out.carve_files import OUTPUT_STEPS, printed_summary, write_carve_outputs
 from handarm.carve import CARVE_STEPS, CarveResult, carve, check_carvable
@@ -70,6 +70,29 @@ class BuildResult:
         return [j.achieved for j in self.carving.joints]
 
 
+#: What ``carve_design`` writes at the top of its folder: (folders, files); ``{name}`` is
+#: the design's name. A test holds it to the files a carving writes.
+CARVE_LAYOUT = (
+    ("links", "meshes", "parts", "pictures"),
+    ("carve.json", "plate.3mf", "{name}.urdf", "{name}.mjcf.xml"),
+)
+#: What ``build`` writes at the top of its folder (``CARVE_LAYOUT`` and the rest).
+BUILD_LAYOUT = (
+    CARVE_LAYOUT[0] + ("assembly", "controller", "handle", "workspace"),
+    CARVE_LAYOUT[1]
+    + ("assembly.html", "bom.csv", "design.toml", "report.html", "sizing.json", "summary.txt")
+    + ("tendons.json",),
+)
+
+
+def check_outputs(out, layout: tuple, design: ArmDesign) -> Path:
+    """``check_out_dir``, then nothing in the way of ``layout`` (``_outdir.check_layout``)."""
+    out = check_out_dir(out)
+    folders, files = layout
+    check_layout(out, folders, tuple(f.format(name=design.name) for f in files))
+    return out
+
+
 def carve_design(
     design: ArmDesign,
     out: str | os.PathLike[str],
@@ -110,7 +133,7 @@ def carve_design(
     check_resources(
         design, resolution_deg=resolution_deg, max_memory=max_memory, max_seconds=max_seconds
     )
-    out = check_out_dir(out)
+    out = check_outputs(out, CARVE_LAYOUT, design)
     total = CARVE_STEPS + OUTPUT_STEPS
     with tqdm(total=total, desc="carving", unit="step", disable=not progress, leave=False) as bar:
 
@@ -370,7 +393,7 @@ def build(
     check_design(design)
     check_carvable(design)
     check_clearance(clearance, scene)  # before the carving: a minute of work
-    out = check_out_dir(out)
+    out = check_outputs(out, BUILD_LAYOUT, design)
     limits = {"max_memory": max_memory, "max_seconds": max_seconds}
     _check_map(design, voxel, directions, True, scene, max_memory, max_seconds)
     check_resources(design, resolution_deg=resolution_deg, **limits)

@@ -65,11 +65,12 @@ def cmd_carve(args: argparse.Namespace) -> int:
     from handarm._resources import check_resources
     from handarm.cad_out.carve_files import printed_summary
     from handarm.carve import check_carvable
-    from handarm.pipeline import carve_design
+    from handarm.pipeline import CARVE_LAYOUT, carve_design, check_outputs
 
     design = load_design(args.design)
     try:
         check_carvable(design)  # before the folder is made or marked
+        check_outputs(args.out, CARVE_LAYOUT, design)
         check_resources(design, resolution_deg=args.resolution, **limits(args))
         # as a build does: locked, marked until done, and the previous run's files that
         # this one does not write again removed (another design's parts mixed in before)
