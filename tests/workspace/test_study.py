@@ -158,3 +158,17 @@ def test_a_study_over_the_limits_suggests_what_it_has(tmp_path):
         run_study(load_study(path), tmp_path / "out")
     assert "--max" not in str(info.value)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_dask_scratch_goes_even_when_closing_is_interrupted(tmp_path):
+    """Ctrl-C on study or optimize left --out/.dask-scratch behind (a hostile check)."""
+    from handarm.workspace._dask import SCRATCH, close_client
+
+    class Interrupted:
+        def close(self):
+            raise KeyboardInterrupt
+
+    (tmp_path / SCRATCH / "worker-1").mkdir(parents=True)
+    with pytest.raises(KeyboardInterrupt):
+        close_client(Interrupted(), Interrupted(), tmp_path)
+    assert not (tmp_path / SCRATCH).exists()

@@ -93,9 +93,15 @@ def open_client(
 
 
 def close_client(client, cluster, out: Path | None = None) -> None:
-    """Close the client and the local cluster (if one was started); remove its scratch."""
-    client.close()
-    if cluster is not None:
-        cluster.close()
-        if out is not None:
+    """Close the client and the local cluster (if one was started); remove its scratch.
+
+    The scratch goes even when closing fails or is interrupted (a second Ctrl-C while the
+    workers stop left it behind).
+    """
+    try:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    finally:
+        if cluster is not None and out is not None:
             shutil.rmtree(Path(out) / SCRATCH, ignore_errors=True)
