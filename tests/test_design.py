@@ -222,3 +222,18 @@ def test_every_numeric_field_has_bounds():
         and f.name not in ("joint_limits", "routing_signs", "servo_ids")
     }
     assert numeric <= set(FIELD_BOUNDS), numeric - set(FIELD_BOUNDS)
+
+
+def test_unreadable_and_folder_design_files_are_one_line(tmp_path, monkeypatch):
+    """A folder said "not a regular file"; an unreadable file raised a raw PermissionError."""
+    with pytest.raises(ValueError, match="is a folder, not a file"):
+        handarm.ArmDesign.from_toml(tmp_path)
+    locked = tmp_path / "locked.toml"
+    locked.write_text(handarm.ArmDesign().to_toml_string())
+
+    def denied(self, *args, **kwargs):  # as for a file without read permission (not root)
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "open", denied)
+    with pytest.raises(ValueError, match="locked.toml: cannot be read"):
+        handarm.ArmDesign.from_toml(locked)

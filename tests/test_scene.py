@@ -426,6 +426,7 @@ def test_ik_command_with_a_scene(tmp_path):
     assert data["solutions"] and all(lo >= 0.002 - 1e-12 for lo, _ in data["clearance_m"])
     for args, message in (
         (["--scene", str(tmp_path / "nope.toml")], "--scene: no such file"),
+        (["--scene", str(tmp_path)], "is a folder, not a file"),
         (["--scene", str(scene), "--clearance", "-1"], "--clearance: expected 0 to 1000 mm"),
         (["--clearance", "2"], "--clearance: only with --scene"),
     ):

@@ -40,9 +40,22 @@ def read_regular_bytes(path: Path, limit: int = 1 << 24) -> bytes:
     """
     path = Path(path)
     st = path.stat()
+    if stat.S_ISDIR(st.st_mode):
+        raise ValueError("is a folder, not a file")
     if not stat.S_ISREG(st.st_mode):
         raise ValueError("not a regular file")
     if st.st_size > limit:
         raise ValueError(f"{st.st_size} bytes is too large (limit {limit})")
-    with path.open("rb") as fh:
-        return fh.read(limit + 1)
+    try:
+        with path.open("rb") as fh:
+            return fh.read(limit + 1)
+    except PermissionError:
+        raise ValueError("cannot be read (permission denied)") from None
+
+
+def not_a_file(path: Path) -> str:
+    """Why ``path`` is no file to read: "no such file 'x'", "'x' is a folder, not a file"."""
+    name = repr(str(path))
+    if not path.exists():
+        return f"no such file {name}"
+    return f"{name} is a folder, not a file" if path.is_dir() else f"{name} is not a regular file"

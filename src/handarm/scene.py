@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handarm._io import not_a_file
 from handarm.design import ArmDesign
 
 __all__ = ["Scene", "rpy_matrix", "scene_gaps", "scene_free"]
@@ -170,7 +171,7 @@ class Scene:
             raise ValueError(f"mesh.units: expected 'm' or 'mm', got {units!r}")
         path = Path(path)
         if not path.is_file():
-            raise ValueError(f"mesh.file: no such file {str(path)!r}")
+            raise ValueError(f"mesh.file: {not_a_file(path)}")
         try:
             mesh = trimesh.load(path, force="mesh")
         except Exception as exc:  # trimesh raises many kinds for unreadable files
@@ -231,7 +232,7 @@ class Scene:
         """Load a scene file (see the module doc); bad entries name their field."""
         path = Path(path)
         if not path.is_file():
-            raise ValueError(f"scene: no such file {str(path)!r}")
+            raise ValueError(f"scene: {not_a_file(path)}")
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

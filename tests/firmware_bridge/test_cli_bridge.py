@@ -312,3 +312,23 @@ def test_follow_refuses_a_file_without_targets(tmp_path, capsys):
         )
         _one_line(code, err)
         assert "--source: the file holds no target line" in err and len(emu.log) == before
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["bridge", "read", "--port", ""], "--port: expected a serial port"),
+        (["bridge", "scan", "--port", "x", "--ids", "5-1"], "--ids: '5-1' runs backwards"),
+        (["bridge", "calibrate", "--port", "x", "--out", ""], "--out: expected a file name"),
+    ],
+)
+def test_empty_and_backward_options_are_named(capsys, argv, message):
+    """An empty --port failed as a bus fault (exit 5); '5-1' was 'not within 0..253'; an
+    empty calibration --out was '.: exists and is not a regular file'."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse's own refusal
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert message in err.strip().splitlines()[-1], err

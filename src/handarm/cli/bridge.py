@@ -162,6 +162,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from handarm.firmware_bridge.bus import record_calibration
 
     design = load_design(args.design)
+    if not args.out.strip():
+        raise UsageError("--out: expected a file name for the calibration, got ''")
     if os.path.lexists(args.out) and not args.force:
         raise UsageError(f"--out: {args.out} exists; add --force to overwrite it")
     with _bus(args, design) as bus:
@@ -269,8 +271,10 @@ def _ids(text):
         lo, hi = int(lo), int(hi or lo)
     except ValueError:
         raise UsageError(f"--ids: expected N or N-M, got {text!r}") from None
-    if not 0 <= lo <= hi <= 253:
+    if not (0 <= lo <= 253 and 0 <= hi <= 253):
         raise UsageError(f"--ids: expected IDs within 0..253, got {text!r}")
+    if lo > hi:
+        raise UsageError(f"--ids: {text!r} runs backwards; give the lower ID first ({hi}-{lo})")
     return range(lo, hi + 1)
 
 
@@ -411,8 +415,15 @@ _LIVE = (
 )
 
 
+def _port_name(text: str) -> str:
+    """An argparse ``type``: a port name, not empty (which failed as a bus fault, exit 5)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a serial port, e.g. /dev/ttyUSB0, got ''")
+    return text
+
+
 def _port_args(p) -> None:
-    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--port", type=_port_name, required=True, help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=int, help="bit rate (default: the design's)")
     p.add_argument(
         "--timeout", type=float, metavar="MS", help="status timeout, ms (default: the SDK's)"
@@ -558,7 +569,7 @@ def register(sub) -> None:
         help="list the servos at every baud",
         description="List every servo that answers (ID, baud, model, firmware, duplicates).",
     )
-    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--port", type=_port_name, required=True, help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=int, nargs="+", help="rates to try (default: all MX-64 rates)")
     p.add_argument("--ids", default="0-253", help="IDs to ping, N or N-M (default 0-253)")
     p.add_argument("--timeout", type=float, metavar="MS", help="status timeout, ms")
@@ -572,7 +583,7 @@ def register(sub) -> None:
     )
     add_design_arg(p)
     p.add_argument("--joint", type=int, required=True, help="joint 1..6")
-    p.add_argument("--port", required=True, help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--port", type=_port_name, required=True, help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=int, nargs="+", help="rates to search (default: all)")
     p.add_argument("--ids", default="0-253", help="IDs to search, N or N-M (default 0-253)")
     p.add_argument("--timeout", type=float, metavar="MS", help="status timeout, ms")

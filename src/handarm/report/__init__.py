@@ -29,7 +29,8 @@ def report_kind(folder: str | os.PathLike[str]) -> str:
     """
     folder = Path(folder)
     if not folder.is_dir():
-        raise ValueError(f"{folder}: no such folder")
+        why = "is not a folder" if folder.exists() else "no such folder"
+        raise ValueError(f"{folder}: {why}")
     if (folder / "design.toml").is_file() and (folder / "carve.json").is_file():
         return "build"
     if (folder / "trials.csv").is_file():
