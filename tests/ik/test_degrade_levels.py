@@ -374,6 +374,15 @@ def test_bad_inputs_name_the_argument(paper, kwargs, match):
         ik.solve(paper, **args)
 
 
+def test_degrade_takes_numpy_booleans(paper):
+    """degrade=np.True_ was refused while chunk took np.int64 (a hostile check)."""
+    p, e = [0.2, 0.05, 0.05], [1, 0, 0.3]
+    a, b = ik.solve(paper, p, e, degrade=np.True_), ik.solve(paper, p, e, degrade=True)
+    np.testing.assert_array_equal(a.intervals, b.intervals)
+    with pytest.raises(ValueError, match="^degrade: "):
+        ik.solve(paper, p, e, degrade=np.int64(1))
+
+
 def test_extreme_but_legal_directions(paper):
     p = handarm.forward(paper, np.radians([10, 30, -40, 30, 20, 10]))[0]
     for e in ([1.5e154, 0, 0], [1e-13, 0, 3e-14], [1e-300, 1e-300, 0]):

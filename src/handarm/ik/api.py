@@ -77,8 +77,9 @@ def solve(
     check_clearance(clearance, scene)
     if order not in ORDERS:
         raise ValueError(f"order: expected one of {list(ORDERS)}, got {order!r}")
-    if not isinstance(degrade, bool):
+    if not isinstance(degrade, (bool, np.bool_)):
         raise ValueError(f"degrade: expected True or False, got {degrade!r}")
+    degrade = bool(degrade)  # numpy's booleans too, as chunk takes numpy's integers
     if scene is not None:
         from handarm.ik.obstacles import solve_in_scene
 
