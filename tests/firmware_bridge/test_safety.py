@@ -572,7 +572,7 @@ def test_cli_follow_from_stdin_ends_at_the_last_target(design, tmp_path, capsys,
     p_goal, _ = handarm.forward(design, np.radians(GOAL_DEG))
     assert np.linalg.norm(handarm.forward(design, poses[-1])[0] - p_goal) < 2e-3
     assert code_bad == 2 and err_bad.strip().splitlines() == [
-        "handarm bridge follow: error: source: expected udp:PORT with PORT in 1..65535, "
+        "handarm bridge follow: error: --source: expected udp:PORT with PORT in 1..65535, "
         "got 'udp:nope'"
     ]
 
